@@ -1,0 +1,88 @@
+#pragma once
+/// @file knots.h
+/// Knot vectors: construction, validation, span search and Greville abscissae.
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "vpffd/core/check.h"
+
+namespace vpffd {
+
+/// Largest supported B-spline degree. Kernels keep per-vertex basis values on
+/// the stack; degree 5 means at most 6 x 6 x 6 = 216 control points per vertex.
+inline constexpr int kMaxDegree = 5;
+
+/// Open-uniform (clamped) knot vector on [lo, hi] for `n` control points of
+/// degree `d`: d+1 repeated end knots and n-d-1 uniformly spaced interior knots.
+/// @returns n + d + 1 knots.
+inline std::vector<double> clamped_uniform_knots(int n, int d, double lo = 0.0, double hi = 1.0) {
+  VPFFD_CHECK(d >= 1 && d <= kMaxDegree, "clamped_uniform_knots: degree ", d, " not in [1, ", kMaxDegree, "]");
+  VPFFD_CHECK(n >= d + 1, "clamped_uniform_knots: ", n, " control points are too few for degree ", d,
+              " (need at least ", d + 1, ")");
+  std::vector<double> t(static_cast<size_t>(n + d + 1));
+  const int spans = n - d;
+  for (int i = 0; i < n + d + 1; ++i) {
+    const int k = std::clamp(i - d, 0, spans);
+    t[i] = (k == spans) ? hi : lo + (hi - lo) * static_cast<double>(k) / spans;
+  }
+  return t;
+}
+
+/// Checks that `t` is a usable knot vector for `n` control points of degree `d`:
+/// n + d + 1 finite, non-decreasing knots, a non-empty domain [t_d, t_n], and
+/// no interior knot repeated more than d times (which would tear the deformation).
+/// @throws InvalidInputError naming `axis` and the problem.
+inline void validate_knots(const std::vector<double>& t, int n, int d, char axis) {
+  VPFFD_CHECK(d >= 1 && d <= kMaxDegree, "lattice: degree ", d, " along ", axis, " not in [1, ", kMaxDegree, "]");
+  VPFFD_CHECK(n >= d + 1, "lattice: ", n, " control points along ", axis, " are too few for degree ", d,
+              " (need at least ", d + 1, ")");
+  VPFFD_CHECK(t.size() == static_cast<size_t>(n + d + 1), "lattice: knot vector along ", axis, " has ", t.size(),
+              " knots, expected n + degree + 1 = ", n + d + 1);
+  for (size_t i = 0; i < t.size(); ++i) {
+    VPFFD_CHECK(std::isfinite(t[i]), "lattice: knot ", i, " along ", axis, " is not finite");
+    if (i > 0) VPFFD_CHECK(t[i] >= t[i - 1], "lattice: knots along ", axis, " decrease at index ", i);
+  }
+  VPFFD_CHECK(t[d] < t[n], "lattice: empty parameter domain along ", axis, " (t[", d, "] == t[", n, "])");
+  for (int i = d + 1; i < n;) {
+    int j = i;
+    while (j + 1 < n && t[j + 1] == t[i]) ++j;
+    VPFFD_CHECK(j - i + 1 <= d, "lattice: interior knot ", t[i], " along ", axis, " repeated ", j - i + 1,
+                " times; at most degree = ", d, " keeps the deformation continuous");
+    i = j + 1;
+  }
+}
+
+/// Index s of the knot span [t_s, t_{s+1}) that holds u, with d <= s < n and the
+/// span non-empty. Parameters outside [t_d, t_n] get the first or last span,
+/// which evaluates the end polynomial pieces (extrapolation).
+inline int find_span(const std::vector<double>& t, int n, int d, double u) {
+  if (u >= t[n]) {
+    int s = n - 1;
+    while (t[s] == t[s + 1]) --s;  // skip empty spans at the end
+    return s;
+  }
+  if (u < t[d]) {
+    int s = d;
+    while (t[s] == t[s + 1]) ++s;
+    return s;
+  }
+  // Last s in [d, n-1] with t[s] <= u: upper_bound gives the first knot > u.
+  auto it = std::upper_bound(t.begin() + d, t.begin() + n + 1, u);
+  return static_cast<int>(it - t.begin()) - 1;
+}
+
+/// Greville abscissae g_i = (t_{i+1} + ... + t_{i+d}) / d, i = 0..n-1. Control
+/// points placed at the Greville abscissae make the B-spline the identity map.
+inline std::vector<double> greville(const std::vector<double>& t, int n, int d) {
+  std::vector<double> g(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    double s = 0;
+    for (int k = 1; k <= d; ++k) s += t[i + k];
+    g[i] = s / d;
+  }
+  return g;
+}
+
+}  // namespace vpffd

@@ -1,0 +1,21 @@
+#pragma once
+/// @file types.h
+/// Scalar, index and matrix aliases shared by the whole core.
+///
+/// Matrices that cross the Python boundary are row-major so that a C-ordered
+/// numpy array of shape (n, 3) maps onto them without a copy.
+
+#include <Eigen/Core>
+#include <cstdint>
+
+namespace vpffd {
+
+using Index = std::int64_t;
+using RowMatrixX3d = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+using RowMatrixX3i = Eigen::Matrix<std::int32_t, Eigen::Dynamic, 3, Eigen::RowMajor>;
+using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using VectorXd = Eigen::VectorXd;
+using Vector3d = Eigen::Vector3d;
+using Matrix3d = Eigen::Matrix3d;
+
+}  // namespace vpffd

@@ -1,0 +1,82 @@
+#pragma once
+/// @file options.h
+/// Options and results of a volume-preserving deformation.
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "vpffd/core/check.h"
+#include "vpffd/core/types.h"
+
+namespace vpffd {
+
+/// How the volume coefficients alpha, beta, gamma (eqs. 13-18) are computed.
+enum class CoefficientMethod {
+  Traversal,  ///< one pass over faces and one over vertices: O(F + N), no matrix (Section 7)
+  Csr,        ///< the paper's GPU formulation: alpha = B n with an N x F CSR matrix built once
+};
+
+inline CoefficientMethod parse_method(const std::string& s) {
+  if (s == "traversal") return CoefficientMethod::Traversal;
+  if (s == "csr") return CoefficientMethod::Csr;
+  throw InvalidInputError("method: expected 'traversal' or 'csr', got '" + s + "'");
+}
+
+inline const char* method_name(CoefficientMethod m) { return m == CoefficientMethod::Csr ? "csr" : "traversal"; }
+
+/// Axes as indices 0..2 from a string such as "xyz", "xy", "z" or "zx" (order kept).
+/// @throws InvalidInputError for other letters or repeated axes.
+inline std::vector<int> parse_axes(const std::string& s) {
+  std::vector<int> axes;
+  for (char c : s) {
+    VPFFD_CHECK(c == 'x' || c == 'y' || c == 'z', "axes: '", s, "' has '", c, "'; use letters from \"xyz\"");
+    const int a = c - 'x';
+    for (int b : axes) VPFFD_CHECK(b != a, "axes: '", s, "' repeats '", c, "'");
+    axes.push_back(a);
+  }
+  return axes;
+}
+
+/// Moves a surface point to a target (Problem 2). The source is a mesh vertex
+/// (vertex >= 0) or a point given in the rest space of the lattice (vertex < 0),
+/// for instance a point picked on the undeformed mesh.
+struct PointConstraint {
+  Index vertex = -1;
+  Vector3d point = Vector3d::Zero();
+  Vector3d target = Vector3d::Zero();
+};
+
+struct CorrectionOptions {
+  bool preserve_volume = true;
+  std::vector<int> axes{0, 1, 2};  ///< corrections along these axes, in this order
+  VectorXd weights;                ///< empty, or one weight > 0 per control point (Remark 2)
+  std::vector<std::uint8_t> fixed; ///< empty, or 1 per control point that must not move
+  std::vector<PointConstraint> constraints;
+  double target_volume = std::numeric_limits<double>::quiet_NaN();  ///< NaN: the rest volume
+  CoefficientMethod method = CoefficientMethod::Traversal;
+  int threads = 0;  ///< 0: all OpenMP threads; 1: serial
+};
+
+/// What one axis step did.
+struct AxisStep {
+  int axis = 0;
+  double volume_before = 0;  ///< volume when the step started
+  double share = 0;          ///< volume the step had to add: (target - volume_before) / axes left
+  double sum_squares = 0;    ///< sum of alpha^2 / weight over the free control points
+  double max_offset = 0;     ///< largest |offset| of the step
+};
+
+struct DeformResult {
+  RowMatrixX3d vertices;        ///< #V x 3 corrected vertices
+  RowMatrixX3d control_points;  ///< N x 3 control points with the offsets applied
+  RowMatrixX3d offsets;         ///< N x 3 offsets delta (zero along axes not corrected)
+  double volume_before = std::numeric_limits<double>::quiet_NaN();  ///< after the plain FFD
+  double volume = std::numeric_limits<double>::quiet_NaN();         ///< of the result, measured
+  double target_volume = std::numeric_limits<double>::quiet_NaN();
+  double constraint_error = 0;  ///< largest |D(u_s) - T| component over the constraints
+  std::vector<AxisStep> steps;
+};
+
+}  // namespace vpffd

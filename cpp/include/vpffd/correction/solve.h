@@ -1,0 +1,93 @@
+#pragma once
+/// @file solve.h
+/// The closed-form least-squares offsets of one axis step.
+///
+/// minimise sum_c w_c delta_c^2 subject to r_p . delta = b_p for a few rows r_p:
+/// the volume row alpha (eq. 23) and one row B(u_s) per point constraint (eq. 29).
+/// The minimiser is delta = W^-1 R^T lambda with (R W^-1 R^T) lambda = b: eq. 24
+/// when only the volume row is present, eqs. 32-35 with one constraint, and a
+/// small dense system for several constraints. Fixed control points have
+/// W^-1 = 0, which removes them from the problem.
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "vpffd/core/check.h"
+#include "vpffd/core/types.h"
+
+namespace vpffd {
+
+struct SparseVec {
+  std::vector<std::int32_t> index;
+  std::vector<double> value;
+};
+
+/// One axis step. `alpha` may be null (no volume row). `inv_weight` has N
+/// entries, 0 for fixed control points.
+/// @param[out] sum_squares  alpha^T W^-1 alpha (0 without a volume row)
+/// @throws SolverError when the system has no solution, saying why.
+inline VectorXd solve_axis_offsets(const VectorXd* alpha, double volume_rhs, const std::vector<SparseVec>& rows,
+                                   const std::vector<double>& rows_rhs, const VectorXd& inv_weight, char axis,
+                                   double* sum_squares = nullptr) {
+  const Index N = inv_weight.size();
+  const int nv = alpha ? 1 : 0;
+  const int m = nv + static_cast<int>(rows.size());
+  RowMatrixXd R = RowMatrixXd::Zero(m, N);
+  Eigen::VectorXd b(m);
+  if (alpha) {
+    R.row(0) = alpha->transpose();
+    b[0] = volume_rhs;
+  }
+  for (size_t s = 0; s < rows.size(); ++s) {
+    for (size_t q = 0; q < rows[s].index.size(); ++q) R(nv + s, rows[s].index[q]) += rows[s].value[q];
+    b[nv + s] = rows_rhs[s];
+  }
+  Index free_points = 0;
+  for (Index c = 0; c < N; ++c) free_points += inv_weight[c] > 0;
+  if (m > free_points)
+    throw SolverError(detail::concat("correction along ", axis, ": ", m, " conditions (", nv ? "volume + " : "",
+                                     rows.size(), " point constraints) but only ", free_points,
+                                     " free control points"));
+  const RowMatrixXd RW = R * inv_weight.asDiagonal();
+  const Eigen::MatrixXd G = RW * R.transpose();
+  if (sum_squares) *sum_squares = alpha ? G(0, 0) : 0.0;
+  for (int p = 0; p < m; ++p) {
+    // A zero row means nothing free can move that condition. The scale is the
+    // row's norm without the weights, so the test is relative.
+    const double scale = R.row(p).squaredNorm();
+    if (!(G(p, p) > 1e-300) || !(G(p, p) > 1e-24 * scale * inv_weight.maxCoeff())) {
+      if (alpha && p == 0)
+        throw SolverError(detail::concat("correction along ", axis,
+                                         ": the volume coefficients of the free control points are all zero "
+                                         "(the mesh is flat along this axis, or every control point that "
+                                         "influences it is fixed)"));
+      throw SolverError(detail::concat("correction along ", axis, ": point constraint ", p - nv,
+                                       " cannot move: every control point that influences it is fixed"));
+    }
+  }
+  // Conditioning of the unit-diagonal system decides whether the rows are independent.
+  const Eigen::VectorXd d = G.diagonal().cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd Gn = d.asDiagonal() * G * d.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Gn);
+  const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
+  if (!(lo > 1e-12 * hi))
+    throw SolverError(detail::concat("correction along ", axis, ": the ", nv ? "volume and point" : "point",
+                                     " constraints are linearly dependent (condition number ",
+                                     lo > 0 ? hi / lo : INFINITY,
+                                     "); two constraints on the same point, or a constraint the volume row "
+                                     "already fixes?"));
+  const auto solve = [&](const Eigen::VectorXd& rhs) -> Eigen::VectorXd {
+    return d.asDiagonal() * (eig.eigenvectors() * (eig.eigenvalues().cwiseInverse().asDiagonal() *
+                                                   (eig.eigenvectors().transpose() * (d.asDiagonal() * rhs))));
+  };
+  VectorXd delta = RW.transpose() * solve(b);
+  // One step of iterative refinement brings the conditions to rounding level
+  // even when the rows are far from orthogonal.
+  const Eigen::VectorXd residual = b - R * delta;
+  delta += RW.transpose() * solve(residual);
+  return delta;
+}
+
+}  // namespace vpffd

@@ -1,0 +1,307 @@
+#pragma once
+/// @file deformer.h
+/// Volume-preserving B-spline FFD of one triangle mesh (Hahmann et al. 2012):
+/// a stateful object that embeds the mesh once and then deforms it for any
+/// number of control point sets (frames).
+///
+/// @code
+///   vpffd::Deformer d(V, F, lattice);
+///   auto r = d.deform(P, {});   // r.vertices, r.volume == d.rest_volume()
+/// @endcode
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "vpffd/correction/options.h"
+#include "vpffd/correction/solve.h"
+#include "vpffd/ffd/basis_matrix.h"
+#include "vpffd/ffd/kernels.h"
+#include "vpffd/lattice/embed.h"
+#include "vpffd/mesh/validate.h"
+#include "vpffd/volume/coefficients.h"
+#include "vpffd/volume/volume.h"
+
+namespace vpffd {
+
+/// Plain FFD of arbitrary points (eq. 1).
+/// @param[in] P  N x 3 control points of lattice L
+/// @param[in] X  #X x 3 rest-space points
+/// @returns #X x 3 deformed points
+inline RowMatrixX3d ffd_points(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& P,
+                               const Eigen::Ref<const RowMatrixX3d>& X, OutsidePolicy policy = OutsidePolicy::Error,
+                               int threads = 0);
+
+class Deformer {
+ public:
+  /// Embeds the mesh (V, F) in lattice L.
+  /// @param[in] V  #V x 3 rest vertices
+  /// @param[in] F  #F x 3 triangles (indices into V)
+  /// @throws InvalidInputError for a bad mesh, a bad lattice, or vertices outside it
+  Deformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F, Lattice L,
+           OutsidePolicy policy = OutsidePolicy::Error, int threads = 0)
+      : lattice_(std::move(L)), V_(V), F_(F), policy_(policy) {
+    validate_mesh(V_, F_, "Deformer");
+    validate_lattice(lattice_);
+    tables_ = basis_tables(lattice_);
+    embedding_ = embed(lattice_, V_, policy_, threads);
+    edges_ = edge_report(F_);
+    adjacency_ = vertex_faces(F_, V_.rows());
+    origin_ = 0.5 * (lattice_.box_min + lattice_.box_max);
+    rest_volume_ = signed_volume(V_, F_, origin_, threads);
+  }
+
+  Deformer(const Deformer&) = delete;
+  Deformer& operator=(const Deformer&) = delete;
+
+  const Lattice& lattice() const { return lattice_; }
+  const RowMatrixX3d& rest_vertices() const { return V_; }
+  const RowMatrixX3i& faces() const { return F_; }
+  Index n_vertices() const { return V_.rows(); }
+  Index n_faces() const { return F_.rows(); }
+  Index n_control_points() const { return lattice_.n_control_points(); }
+  const EdgeReport& edges() const { return edges_; }
+  bool is_closed() const { return edges_.closed(); }
+  const Embedding& embedding() const { return embedding_; }
+  const BasisTables& tables() const { return tables_; }
+  OutsidePolicy outside_policy() const { return policy_; }
+  /// Reference point of the volume sums (the lattice box centre).
+  const Vector3d& origin() const { return origin_; }
+
+  /// Enclosed volume of the rest mesh. @throws InvalidInputError if it is not closed.
+  double rest_volume() const {
+    require_closed(edges_, "rest_volume");
+    return rest_volume_;
+  }
+
+  /// Bytes of per-vertex data kept for every frame: the embedding (36) plus the
+  /// vertex-face adjacency (about 6 faces x 4 bytes + 4).
+  double bytes_per_vertex() const {
+    const double adj = double(adjacency_.indptr.size() + adjacency_.faces.size()) * 4 / double(n_vertices());
+    return double(Embedding::bytes_per_point) + adj;
+  }
+
+  /// Plain FFD of the mesh vertices. @param P N x 3 control points. @returns #V x 3
+  RowMatrixX3d ffd(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
+    check_control_points(P, "ffd");
+    RowMatrixX3d X(n_vertices(), 3);
+    eval_ffd(P, X.data(), threads);
+    return X;
+  }
+
+  /// Jacobians dD/dx at the vertices: #V x 9, row-major 3x3 per vertex.
+  RowMatrixXd jacobians(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
+    check_control_points(P, "jacobians");
+    const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    RowMatrixXd J(n_vertices(), 9);
+    const Vector3d s = parameter_scale(lattice_);
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      detail::jacobian_kernel(tables_, embedding_, Px.data(), Py.data(), Pz.data(), s, J.data(), b, e);
+    });
+    return J;
+  }
+
+  /// #V x N vertex basis matrix: ffd(P) == B * P.
+  CsrMatrix basis_matrix(int threads = 0) const { return vertex_basis_matrix(tables_, embedding_, threads); }
+
+  /// The paper's N x F face matrix, built on first use and kept.
+  const CsrMatrix& face_matrix(int threads = 0) const {
+    std::call_once(face_matrix_once_, [&] {
+      face_matrix_ = std::make_unique<CsrMatrix>(face_basis_matrix(tables_, embedding_, F_, threads));
+    });
+    return *face_matrix_;
+  }
+
+  /// Volume coefficients of `axis` (0, 1, 2) for the current vertices X (#V x 3).
+  AxisCoefficients volume_coefficients(const Eigen::Ref<const RowMatrixX3d>& X, int axis,
+                                       CoefficientMethod method = CoefficientMethod::Traversal,
+                                       int threads = 0) const {
+    VPFFD_CHECK(X.rows() == n_vertices(), "volume_coefficients: X has ", X.rows(), " rows, expected ",
+                n_vertices());
+    VPFFD_CHECK(axis >= 0 && axis < 3, "volume_coefficients: axis ", axis, " not in 0..2");
+    require_closed(edges_, "volume_coefficients");
+    return coefficients(X.data(), axis, method, threads);
+  }
+
+  /// One frame: plain FFD with control points P (N x 3), then the volume
+  /// correction and point constraints of `opt`.
+  /// @throws InvalidInputError for bad options, SolverError when no correction exists
+  DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
+
+ private:
+  void check_control_points(const Eigen::Ref<const RowMatrixX3d>& P, const char* where) const {
+    VPFFD_CHECK(P.rows() == n_control_points(), where, ": ", P.rows(), " control points, the lattice has ",
+                n_control_points());
+    VPFFD_CHECK(P.allFinite(), where, ": control points contain NaN or Inf");
+  }
+
+  void eval_ffd(const Eigen::Ref<const RowMatrixX3d>& P, double* out, int threads) const {
+    const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      detail::dispatch_order(tables_, [&](auto K) {
+        detail::ffd_kernel<decltype(K)::value>(tables_, embedding_, Px.data(), Py.data(), Pz.data(), out, b, e);
+      });
+    });
+  }
+
+  void gather(const VectorXd& D, double* X, int axis, int threads) const {
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      detail::dispatch_order(tables_, [&](auto K) {
+        detail::gather_kernel<decltype(K)::value>(tables_, embedding_, D.data(), X, axis, b, e);
+      });
+    });
+  }
+
+  AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads) const {
+    if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, F_, axis, origin_, threads);
+    return coefficients_traversal(tables_, embedding_, adjacency_, X, F_, axis, origin_, threads);
+  }
+
+  Lattice lattice_;
+  RowMatrixX3d V_;
+  RowMatrixX3i F_;
+  OutsidePolicy policy_;
+  BasisTables tables_;
+  Embedding embedding_;
+  EdgeReport edges_;
+  VertexFaces adjacency_;
+  Vector3d origin_;
+  double rest_volume_ = 0;
+  mutable std::once_flag face_matrix_once_;
+  mutable std::unique_ptr<CsrMatrix> face_matrix_;
+};
+
+inline RowMatrixX3d ffd_points(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& P,
+                               const Eigen::Ref<const RowMatrixX3d>& X, OutsidePolicy policy, int threads) {
+  validate_lattice(L);
+  VPFFD_CHECK(P.rows() == L.n_control_points(), "ffd_points: ", P.rows(), " control points, the lattice has ",
+              L.n_control_points());
+  VPFFD_CHECK(P.allFinite(), "ffd_points: control points contain NaN or Inf");
+  const BasisTables T = basis_tables(L);
+  const Embedding E = embed(L, X, policy, threads, "point");
+  const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+  RowMatrixX3d out(X.rows(), 3);
+  parallel_range(X.rows(), threads, [&](Index b, Index e) {
+    detail::dispatch_order(T, [&](auto K) {
+      detail::ffd_kernel<decltype(K)::value>(T, E, Px.data(), Py.data(), Pz.data(), out.data(), b, e);
+    });
+  });
+  return out;
+}
+
+inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
+  static const char axis_name[3] = {'x', 'y', 'z'};
+  const Index N = n_control_points();
+  const int threads = opt.threads;
+  check_control_points(P, "deform");
+
+  // --- options ---------------------------------------------------------------
+  const bool correcting = opt.preserve_volume || !opt.constraints.empty();
+  if (correcting) VPFFD_CHECK(!opt.axes.empty(), "deform: axes is empty; name at least one of x, y, z");
+  for (int a : opt.axes) VPFFD_CHECK(a >= 0 && a < 3, "deform: axis ", a, " not in 0..2");
+  VectorXd inv_weight = VectorXd::Ones(N);
+  if (opt.weights.size() > 0) {
+    VPFFD_CHECK(opt.weights.size() == N, "deform: ", opt.weights.size(), " weights, expected one per control point (",
+                N, ")");
+    for (Index c = 0; c < N; ++c)
+      VPFFD_CHECK(std::isfinite(opt.weights[c]) && opt.weights[c] > 0, "deform: weight ", c, " is ", opt.weights[c],
+                  "; weights must be finite and positive (use fixed= to pin control points)");
+    inv_weight = opt.weights.cwiseInverse();
+  }
+  if (!opt.fixed.empty()) {
+    VPFFD_CHECK(Index(opt.fixed.size()) == N, "deform: fixed has ", opt.fixed.size(),
+                " entries, expected one per control point (", N, ")");
+    for (Index c = 0; c < N; ++c)
+      if (opt.fixed[c]) inv_weight[c] = 0.0;
+  }
+  if (opt.preserve_volume) require_closed(edges_, "deform(preserve_volume=True)");
+  const double target = std::isnan(opt.target_volume) ? rest_volume_ : opt.target_volume;
+  VPFFD_CHECK(std::isfinite(target), "deform: target_volume is ", target, "; expected a finite number");
+
+  // Constraint sources: basis rows at their parameters.
+  const size_t nc = opt.constraints.size();
+  std::vector<SparseVec> rows(nc);
+  {
+    RowMatrixX3d pts(static_cast<Index>(nc), 3);
+    for (size_t s = 0; s < nc; ++s) {
+      const PointConstraint& pc = opt.constraints[s];
+      VPFFD_CHECK(pc.target.allFinite(), "deform: constraint ", s, " has a non-finite target");
+      if (pc.vertex >= 0) {
+        VPFFD_CHECK(pc.vertex < n_vertices(), "deform: constraint ", s, " names vertex ", pc.vertex, ", but there are ",
+                    n_vertices(), " vertices");
+        pts.row(s) = V_.row(pc.vertex);
+      } else {
+        VPFFD_CHECK(pc.point.allFinite(), "deform: constraint ", s, " has a non-finite source point");
+        pts.row(s) = pc.point.transpose();
+      }
+    }
+    const Embedding Ec = embed(lattice_, pts, policy_, 1, "constraint point");
+    const int per = tables_.order[0] * tables_.order[1] * tables_.order[2];
+    for (size_t s = 0; s < nc; ++s) {
+      rows[s].index.resize(per);
+      rows[s].value.resize(per);
+      point_basis_entries(tables_, Ec, static_cast<Index>(s), rows[s].index.data(), rows[s].value.data());
+    }
+  }
+  auto row_dot = [&](const SparseVec& r, const Eigen::Ref<const VectorXd>& x) {
+    double s = 0;
+    for (size_t q = 0; q < r.index.size(); ++q) s += r.value[q] * x[r.index[q]];
+    return s;
+  };
+
+  // --- plain FFD -------------------------------------------------------------
+  DeformResult res;
+  res.target_volume = opt.preserve_volume ? target : std::numeric_limits<double>::quiet_NaN();
+  res.vertices.resize(n_vertices(), 3);
+  double* X = res.vertices.data();
+  eval_ffd(P, X, threads);
+  res.offsets = RowMatrixX3d::Zero(N, 3);
+  if (is_closed()) res.volume_before = signed_volume(X, F_, origin_, threads);
+
+  // A constraint along an axis that is not corrected could only be met by luck.
+  std::vector<bool> corrected(3, false);
+  for (int a : opt.axes) corrected[a] = correcting;
+  const double diag = (lattice_.box_max - lattice_.box_min).norm();
+  for (size_t s = 0; s < nc; ++s)
+    for (int a = 0; a < 3; ++a)
+      if (!corrected[a]) {
+        const double S = row_dot(rows[s], P.col(a));
+        VPFFD_CHECK(std::abs(S - opt.constraints[s].target[a]) <= 1e-9 * diag, "deform: constraint ", s,
+                    " moves its point along ", axis_name[a], " (from ", S, " to ", opt.constraints[s].target[a],
+                    "), but ", axis_name[a], " is not among the corrected axes");
+      }
+
+  // --- axis steps -------------------------------------------------------------
+  if (correcting) {
+    const int k = static_cast<int>(opt.axes.size());
+    for (int step = 0; step < k; ++step) {
+      const int a = opt.axes[step];
+      AxisStep info;
+      info.axis = a;
+      AxisCoefficients co;
+      if (opt.preserve_volume) {
+        co = coefficients(X, a, opt.method, threads);
+        info.volume_before = co.volume;
+        // Equal shares of what is still missing: after the last axis the volume is the target.
+        info.share = (target - co.volume) / (k - step);
+      }
+      std::vector<double> rhs(nc);
+      for (size_t s = 0; s < nc; ++s) rhs[s] = opt.constraints[s].target[a] - row_dot(rows[s], P.col(a));
+      const VectorXd delta = solve_axis_offsets(opt.preserve_volume ? &co.alpha : nullptr, info.share, rows, rhs,
+                                                inv_weight, axis_name[a], &info.sum_squares);
+      info.max_offset = delta.cwiseAbs().maxCoeff();
+      res.offsets.col(a) = delta;
+      gather(delta, X, a, threads);
+      res.steps.push_back(info);
+    }
+  }
+  res.control_points = P + res.offsets;
+  if (is_closed()) res.volume = signed_volume(X, F_, origin_, threads);
+  for (size_t s = 0; s < nc; ++s)
+    for (int a = 0; a < 3; ++a)
+      res.constraint_error = std::max(res.constraint_error, std::abs(row_dot(rows[s], res.control_points.col(a)) -
+                                                                     opt.constraints[s].target[a]));
+  return res;
+}
+
+}  // namespace vpffd

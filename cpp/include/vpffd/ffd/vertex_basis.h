@@ -1,0 +1,59 @@
+#pragma once
+/// @file vertex_basis.h
+/// The tensor-product basis of one embedded point, and dispatch on the spline order.
+///
+/// Kernels are templates on the order K = degree + 1 (the same on all three axes),
+/// so the innermost loops have a compile-time length the compiler unrolls and
+/// vectorises; K = 0 selects runtime orders (mixed degrees).
+
+#include <type_traits>
+
+#include "vpffd/lattice/embed.h"
+
+namespace vpffd::detail {
+
+inline constexpr int kMaxOrder = kMaxDegree + 1;
+
+/// Basis values of point v along the three axes and the row of its first control point.
+template <int K>
+inline Index point_basis(const BasisTables& T, const Embedding& E, Index v, double* bu, double* bv, double* bw) {
+  const int s0 = E.span[0][v], s1 = E.span[1][v], s2 = E.span[2][v];
+  if constexpr (K > 0) {
+    eval_span<K>(T.poly[0].span_coef(s0), E.tau[0][v], bu);
+    eval_span<K>(T.poly[1].span_coef(s1), E.tau[1][v], bv);
+    eval_span<K>(T.poly[2].span_coef(s2), E.tau[2][v], bw);
+  } else {
+    eval_span(T.poly[0].span_coef(s0), T.order[0], E.tau[0][v], bu);
+    eval_span(T.poly[1].span_coef(s1), T.order[1], E.tau[1][v], bv);
+    eval_span(T.poly[2].span_coef(s2), T.order[2], E.tau[2][v], bw);
+  }
+  const int i0 = s0 - T.poly[0].degree, j0 = s1 - T.poly[1].degree, k0 = s2 - T.poly[2].degree;
+  return (Index(i0) * T.dims[1] + j0) * T.dims[2] + k0;
+}
+
+/// Orders used by a kernel instantiated for K (runtime ones when K == 0).
+template <int K>
+struct Orders {
+  int u, v, w;
+  explicit Orders(const BasisTables& T)
+      : u(K > 0 ? K : T.order[0]), v(K > 0 ? K : T.order[1]), w(K > 0 ? K : T.order[2]) {}
+};
+
+/// Calls f(std::integral_constant<int, K>{}) with the uniform order, or K = 0.
+template <class F>
+decltype(auto) dispatch_order(const BasisTables& T, F&& f) {
+  const int K = T.order[0];
+  if (T.order[1] == K && T.order[2] == K) {
+    switch (K) {
+      case 2: return f(std::integral_constant<int, 2>{});
+      case 3: return f(std::integral_constant<int, 3>{});
+      case 4: return f(std::integral_constant<int, 4>{});
+      case 5: return f(std::integral_constant<int, 5>{});
+      case 6: return f(std::integral_constant<int, 6>{});
+      default: break;
+    }
+  }
+  return f(std::integral_constant<int, 0>{});
+}
+
+}  // namespace vpffd::detail

@@ -1,0 +1,106 @@
+#pragma once
+/// @file lattice.h
+/// The structure of a trivariate B-spline lattice: degrees, knots and the world
+/// box that is mapped affinely onto the parameter domain. Control points are kept
+/// apart, as plain (nu*nv*nw) x 3 arrays, because they change every frame while
+/// the structure does not.
+///
+/// Control point (i, j, k) is row (i * nv + j) * nw + k, which is the C-order
+/// flattening of a numpy array of shape (nu, nv, nw, 3).
+
+#include <array>
+#include <cmath>
+#include <vector>
+
+#include "vpffd/bspline/basis.h"
+#include "vpffd/bspline/knots.h"
+#include "vpffd/core/types.h"
+
+namespace vpffd {
+
+struct Lattice {
+  std::array<int, 3> degree{3, 3, 3};
+  std::array<std::vector<double>, 3> knots;  ///< per axis, n_a + degree_a + 1 knots
+  Vector3d box_min = Vector3d::Zero();       ///< world point mapped to (t_d, t_d, t_d)
+  Vector3d box_max = Vector3d::Ones();       ///< world point mapped to (t_n, t_n, t_n)
+
+  int dim(int a) const { return static_cast<int>(knots[a].size()) - degree[a] - 1; }
+  std::array<int, 3> dims() const { return {dim(0), dim(1), dim(2)}; }
+  Index n_control_points() const { return Index(dim(0)) * dim(1) * dim(2); }
+  /// Row of control point (i, j, k) in the control point array.
+  Index index(int i, int j, int k) const { return (Index(i) * dim(1) + j) * dim(2) + k; }
+  double domain_lo(int a) const { return knots[a][degree[a]]; }
+  double domain_hi(int a) const { return knots[a][dim(a)]; }
+};
+
+/// @throws InvalidInputError for a degree outside [1, 5], too few control points
+/// for the degree, bad knots, or a box with a non-finite or non-positive extent.
+inline void validate_lattice(const Lattice& L) {
+  static const char axes[3] = {'x', 'y', 'z'};
+  for (int a = 0; a < 3; ++a) {
+    VPFFD_CHECK(L.degree[a] >= 1 && L.degree[a] <= kMaxDegree, "lattice: degree ", L.degree[a], " along ", axes[a],
+                " not in [1, ", kMaxDegree, "]");
+    validate_knots(L.knots[a], L.dim(a), L.degree[a], axes[a]);
+    VPFFD_CHECK(std::isfinite(L.box_min[a]) && std::isfinite(L.box_max[a]), "lattice: box along ", axes[a],
+                " is not finite");
+    VPFFD_CHECK(L.box_max[a] > L.box_min[a], "lattice: zero or negative extent along ", axes[a], " (",
+                L.box_min[a], " .. ", L.box_max[a], ")");
+  }
+  VPFFD_CHECK(L.n_control_points() < (Index(1) << 31), "lattice: too many control points (",
+              L.n_control_points(), ")");
+}
+
+/// A lattice over the box [box_min, box_max] with `dims` control points per axis,
+/// the given degrees and open-uniform knots on [0, 1].
+inline Lattice make_lattice(const Vector3d& box_min, const Vector3d& box_max, std::array<int, 3> dims,
+                            std::array<int, 3> degree) {
+  Lattice L;
+  L.degree = degree;
+  L.box_min = box_min;
+  L.box_max = box_max;
+  for (int a = 0; a < 3; ++a) {
+    VPFFD_CHECK(degree[a] >= 1 && degree[a] <= kMaxDegree, "lattice: degree ", degree[a], " not in [1, ",
+                kMaxDegree, "]");
+    VPFFD_CHECK(dims[a] >= degree[a] + 1, "lattice: shape ", dims[a], " along axis ", a,
+                " is too small for degree ", degree[a], " (need at least ", degree[a] + 1, ")");
+    L.knots[a] = clamped_uniform_knots(dims[a], degree[a]);
+  }
+  validate_lattice(L);
+  return L;
+}
+
+/// Parameter (u, v, w) of a world point: the affine map of the box onto the domain.
+inline Vector3d parameter_of(const Lattice& L, const Vector3d& x) {
+  Vector3d u;
+  for (int a = 0; a < 3; ++a) {
+    const double lo = L.domain_lo(a), hi = L.domain_hi(a);
+    u[a] = lo + (x[a] - L.box_min[a]) / (L.box_max[a] - L.box_min[a]) * (hi - lo);
+  }
+  return u;
+}
+
+/// The rest (identity) control points: each at the world image of its Greville
+/// abscissae, so that the undeformed FFD maps every point exactly onto itself
+/// (B-splines reproduce linear functions). Returns (nu*nv*nw) x 3.
+inline RowMatrixX3d rest_control_points(const Lattice& L) {
+  std::array<std::vector<double>, 3> g;
+  for (int a = 0; a < 3; ++a) {
+    g[a] = greville(L.knots[a], L.dim(a), L.degree[a]);
+    const double lo = L.domain_lo(a), hi = L.domain_hi(a);
+    for (double& x : g[a]) x = L.box_min[a] + (x - lo) / (hi - lo) * (L.box_max[a] - L.box_min[a]);
+  }
+  RowMatrixX3d P(L.n_control_points(), 3);
+  for (int i = 0; i < L.dim(0); ++i)
+    for (int j = 0; j < L.dim(1); ++j)
+      for (int k = 0; k < L.dim(2); ++k) P.row(L.index(i, j, k)) << g[0][i], g[1][j], g[2][k];
+  return P;
+}
+
+/// Jacobian of the parameter map: du_a/dx_a (the map is axis-aligned).
+inline Vector3d parameter_scale(const Lattice& L) {
+  Vector3d s;
+  for (int a = 0; a < 3; ++a) s[a] = (L.domain_hi(a) - L.domain_lo(a)) / (L.box_max[a] - L.box_min[a]);
+  return s;
+}
+
+}  // namespace vpffd

@@ -1,0 +1,98 @@
+#pragma once
+/// @file validate.h
+/// Checks of a triangle mesh given as plain arrays: V (#V x 3 float64) and
+/// F (#F x 3 int32), and the edge counts that decide whether it encloses a volume.
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "vpffd/core/check.h"
+#include "vpffd/core/types.h"
+
+namespace vpffd {
+
+/// @throws InvalidInputError for an empty mesh, non-finite coordinates or face
+///         indices out of [0, #V).
+inline void validate_mesh(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
+                          const char* where = "mesh") {
+  VPFFD_CHECK(V.rows() > 0, where, ": the mesh has no vertices");
+  VPFFD_CHECK(F.rows() > 0, where, ": the mesh has no faces");
+  VPFFD_CHECK(V.rows() < (Index(1) << 31), where, ": too many vertices (", V.rows(), ")");
+  for (Index v = 0; v < V.rows(); ++v)
+    VPFFD_CHECK(std::isfinite(V(v, 0)) && std::isfinite(V(v, 1)) && std::isfinite(V(v, 2)), where, ": vertex ", v,
+                " has a non-finite coordinate (", V(v, 0), ", ", V(v, 1), ", ", V(v, 2), ")");
+  for (Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c)
+      VPFFD_CHECK(F(f, c) >= 0 && F(f, c) < V.rows(), where, ": face ", f, " refers to vertex ", F(f, c),
+                  ", but there are ", V.rows(), " vertices (valid: 0..", V.rows() - 1, ")");
+}
+
+/// Edge statistics of a face list.
+struct EdgeReport {
+  Index edges = 0;              ///< distinct undirected edges
+  Index boundary_edges = 0;     ///< used by one face
+  Index nonmanifold_edges = 0;  ///< used by more than two faces
+  Index misoriented_edges = 0;  ///< used twice in the same direction (inconsistent winding)
+  bool closed() const { return boundary_edges == 0 && nonmanifold_edges == 0 && misoriented_edges == 0; }
+};
+
+inline EdgeReport edge_report(const Eigen::Ref<const RowMatrixX3i>& F) {
+  // Each directed edge as a key: the undirected pair (lo, hi) in the upper bits,
+  // its direction in bit 0. #V < 2^31 keeps the pair within 63 bits.
+  std::vector<std::uint64_t> keys;
+  keys.reserve(static_cast<size_t>(F.rows()) * 3);
+  for (Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const std::uint64_t a = static_cast<std::uint32_t>(F(f, c)), b = static_cast<std::uint32_t>(F(f, (c + 1) % 3));
+      const std::uint64_t lo = std::min(a, b), hi = std::max(a, b);
+      keys.push_back(((lo << 31 | hi) << 1) | (a < b ? 0u : 1u));
+    }
+  std::sort(keys.begin(), keys.end());
+  EdgeReport r;
+  for (size_t i = 0; i < keys.size();) {
+    size_t j = i, fwd = 0, bwd = 0;
+    while (j < keys.size() && (keys[j] >> 1) == (keys[i] >> 1)) {
+      (keys[j] & 1 ? bwd : fwd)++;
+      ++j;
+    }
+    const size_t uses = j - i;
+    ++r.edges;
+    if (uses == 1) ++r.boundary_edges;
+    else if (uses > 2) ++r.nonmanifold_edges;
+    else if (fwd != 1) ++r.misoriented_edges;
+    i = j;
+  }
+  return r;
+}
+
+/// @throws InvalidInputError when F does not bound a volume, saying why.
+inline void require_closed(const EdgeReport& r, const char* where) {
+  VPFFD_CHECK(r.boundary_edges == 0, where, ": the mesh is open (", r.boundary_edges,
+              " boundary edges), so it encloses no volume");
+  VPFFD_CHECK(r.nonmanifold_edges == 0, where, ": the mesh has ", r.nonmanifold_edges,
+              " non-manifold edges (shared by more than two faces), so its enclosed volume is undefined");
+  VPFFD_CHECK(r.misoriented_edges == 0, where, ": the faces are inconsistently oriented (", r.misoriented_edges,
+              " edges used twice in the same direction), so the signed volume is meaningless");
+}
+
+/// Faces around each vertex, compressed: faces of v are faces[indptr[v] .. indptr[v+1]).
+struct VertexFaces {
+  std::vector<std::int32_t> indptr;
+  std::vector<std::int32_t> faces;
+};
+
+inline VertexFaces vertex_faces(const Eigen::Ref<const RowMatrixX3i>& F, Index n_vertices) {
+  VertexFaces a;
+  a.indptr.assign(n_vertices + 1, 0);
+  for (Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) ++a.indptr[F(f, c) + 1];
+  for (Index v = 0; v < n_vertices; ++v) a.indptr[v + 1] += a.indptr[v];
+  a.faces.resize(a.indptr.back());
+  std::vector<std::int32_t> fill(a.indptr.begin(), a.indptr.end() - 1);
+  for (Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) a.faces[fill[F(f, c)]++] = static_cast<std::int32_t>(f);
+  return a;
+}
+
+}  // namespace vpffd

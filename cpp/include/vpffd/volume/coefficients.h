@@ -1,0 +1,98 @@
+#pragma once
+/// @file coefficients.h
+/// The volume coefficients of one axis (alpha for x, beta for y, gamma for z;
+/// eqs. 13-18): the volume is exactly V + alpha . delta when the control points
+/// move by delta along that axis only, because the volume is linear in each
+/// coordinate separately.
+
+#include <algorithm>
+#include <vector>
+
+#include "vpffd/core/parallel.h"
+#include "vpffd/ffd/kernels.h"
+#include "vpffd/mesh/validate.h"
+#include "vpffd/sparse/spmv.h"
+#include "vpffd/volume/volume.h"
+
+namespace vpffd {
+
+/// Coefficients and the current volume, computed together.
+struct AxisCoefficients {
+  VectorXd alpha;  ///< N coefficients
+  double volume = 0;
+};
+
+/// O(F + N) single traversal (Section 7): each face's normal component n_f is
+/// computed once; each vertex sums n_f / 6 over its faces (its weight w_v, the
+/// derivative of the volume by its coordinate) and scatters w_v B_c(u_v) into the
+/// control points that influence it. The scatter goes into one buffer per chunk
+/// of vertices, summed in chunk order: no atomics, same result for any thread count.
+/// @param X       #V x 3 current vertices (row-major)
+/// @param origin  reference point for the volume (see signed_volume)
+inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embedding& E, const VertexFaces& vf,
+                                               const double* X, const Eigen::Ref<const RowMatrixX3i>& F, int axis,
+                                               const Vector3d& origin, int threads = 0) {
+  const Index nv = E.size();
+  const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
+  std::vector<double> nf(F.rows());
+  face_normal_component(X, F, axis, nf.data(), threads);
+  // Chunk buffers are N doubles each: cap their total at 64 MB for huge lattices.
+  const int max_chunks = static_cast<int>(std::clamp<Index>((Index(64) << 20) / (8 * N), 1, 64));
+  const int chunks = chunk_count(nv, 8192, max_chunks);
+  std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
+  std::vector<double> vol(chunks, 0.0);
+  const std::int32_t* ip = vf.indptr.data();
+  const std::int32_t* fa = vf.faces.data();
+  const double o = origin[axis];
+  parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
+    double vsum = 0;
+    auto weight = [&](Index v) {
+      double w = 0;
+      for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) w += nf[fa[p]];
+      w *= (1.0 / 6.0);
+      vsum += (X[3 * v + axis] - o) * w;
+      return w;
+    };
+    detail::dispatch_order(T, [&](auto K) {
+      detail::scatter_kernel<decltype(K)::value>(T, E, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
+    });
+    vol[c] = vsum;
+  });
+  AxisCoefficients out;
+  out.alpha.resize(N);
+  parallel_range(N, threads, [&](Index b, Index e) {
+    for (Index r = b; r < e; ++r) {
+      double s = 0;
+      for (int c = 0; c < chunks; ++c) s += buf[static_cast<size_t>(c) * N + r];
+      out.alpha[r] = s;
+    }
+  });
+  for (double v : vol) out.volume += v;
+  return out;
+}
+
+/// The paper's formulation: alpha = A n with A the N x F face matrix
+/// (face_basis_matrix) and n the face normal components; OpenMP CSR SpMV.
+inline AxisCoefficients coefficients_csr(const CsrMatrix& A, const double* X, const Eigen::Ref<const RowMatrixX3i>& F,
+                                         int axis, const Vector3d& origin, int threads = 0) {
+  const Index nfaces = F.rows();
+  std::vector<double> nf(nfaces);
+  face_normal_component(X, F, axis, nf.data(), threads);
+  AxisCoefficients out;
+  out.alpha.resize(A.rows);
+  spmv(A, nf.data(), out.alpha.data(), threads);
+  const int chunks = chunk_count(nfaces);
+  std::vector<double> vol(chunks, 0.0);
+  const double o = origin[axis];
+  parallel_chunks(nfaces, chunks, threads, [&](int c, Index b, Index e) {
+    double s = 0;
+    for (Index f = b; f < e; ++f)
+      s += (X[3 * Index(F(f, 0)) + axis] + X[3 * Index(F(f, 1)) + axis] + X[3 * Index(F(f, 2)) + axis] - 3 * o) *
+           nf[f];
+    vol[c] = s / 6.0;
+  });
+  for (double v : vol) out.volume += v;
+  return out;
+}
+
+}  // namespace vpffd

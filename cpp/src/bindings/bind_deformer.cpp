@@ -1,0 +1,135 @@
+// The stateful Deformer: one mesh embedded in one lattice, many frames.
+
+#include <optional>
+
+#include "common.h"
+
+namespace vpffd::bindings {
+
+namespace {
+
+py::dict result_to_python(DeformResult&& r) {
+  py::dict d;
+  d["vertices"] = py::cast(std::move(r.vertices));
+  d["control_points"] = py::cast(std::move(r.control_points));
+  d["offsets"] = py::cast(std::move(r.offsets));
+  d["volume_before"] = r.volume_before;
+  d["volume"] = r.volume;
+  d["target_volume"] = r.target_volume;
+  d["constraint_error"] = r.constraint_error;
+  py::list steps;
+  for (const AxisStep& s : r.steps) {
+    py::dict e;
+    e["axis"] = std::string(1, char('x' + s.axis));
+    e["volume_before"] = s.volume_before;
+    e["share"] = s.share;
+    e["sum_squares"] = s.sum_squares;
+    e["max_offset"] = s.max_offset;
+    steps.append(e);
+  }
+  d["steps"] = steps;
+  return d;
+}
+
+}  // namespace
+
+void bind_deformer(py::module_& m) {
+  py::class_<Deformer, std::unique_ptr<Deformer>>(m, "Deformer")
+      .def(py::init([](RefV V, RefF F, const Lattice& L, const std::string& outside, int threads) {
+             const OutsidePolicy pol = parse_outside_policy(outside);
+             py::gil_scoped_release release;
+             return std::make_unique<Deformer>(V, F, L, pol, threads);
+           }),
+           py::arg("vertices"), py::arg("faces"), py::arg("lattice"), py::arg("outside") = "error",
+           py::arg("threads") = 0)
+      .def_property_readonly("n_vertices", &Deformer::n_vertices)
+      .def_property_readonly("n_faces", &Deformer::n_faces)
+      .def_property_readonly("n_control_points", &Deformer::n_control_points)
+      .def_property_readonly("is_closed", &Deformer::is_closed)
+      .def_property_readonly("rest_volume", &Deformer::rest_volume)
+      .def_property_readonly("bytes_per_vertex", &Deformer::bytes_per_vertex)
+      .def_property_readonly("origin", &Deformer::origin)
+      .def(
+          "ffd",
+          [](const Deformer& d, RefV P, int threads) {
+            py::gil_scoped_release release;
+            return d.ffd(P, threads);
+          },
+          py::arg("control_points"), py::arg("threads") = 0)
+      .def(
+          "jacobians",
+          [](const Deformer& d, RefV P, int threads) {
+            py::gil_scoped_release release;
+            return d.jacobians(P, threads);
+          },
+          py::arg("control_points"), py::arg("threads") = 0)
+      .def(
+          "basis_matrix",
+          [](const Deformer& d, int threads) {
+            CsrMatrix A;
+            {
+              py::gil_scoped_release release;
+              A = d.basis_matrix(threads);
+            }
+            return csr_to_python(std::move(A));
+          },
+          py::arg("threads") = 0)
+      .def(
+          "face_matrix",
+          [](const Deformer& d, int threads) {
+            const CsrMatrix* A;
+            {
+              py::gil_scoped_release release;
+              A = &d.face_matrix(threads);
+            }
+            return csr_copy_to_python(*A);
+          },
+          py::arg("threads") = 0)
+      .def(
+          "face_matrix_nnz",
+          [](const Deformer& d, int threads) {
+            py::gil_scoped_release release;
+            return d.face_matrix(threads).nnz();
+          },
+          py::arg("threads") = 0)
+      .def(
+          "volume_coefficients",
+          [](const Deformer& d, RefV X, int axis, const std::string& method, int threads) {
+            const CoefficientMethod mth = parse_method(method);
+            AxisCoefficients c;
+            {
+              py::gil_scoped_release release;
+              c = d.volume_coefficients(X, axis, mth, threads);
+            }
+            return py::make_tuple(std::move(c.alpha), c.volume);
+          },
+          py::arg("vertices"), py::arg("axis"), py::arg("method") = "traversal", py::arg("threads") = 0)
+      .def(
+          "deform",
+          [](const Deformer& d, RefV P, bool preserve_volume, const std::string& axes,
+             std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
+             const std::vector<std::tuple<Index, Vector3d, Vector3d>>& constraints,
+             std::optional<double> target_volume, const std::string& method, int threads) {
+            CorrectionOptions o;
+            o.preserve_volume = preserve_volume;
+            o.axes = parse_axes(axes);
+            if (weights) o.weights = std::move(*weights);
+            if (fixed) o.fixed = std::move(*fixed);
+            for (const auto& [v, p, t] : constraints) o.constraints.push_back({v, p, t});
+            if (target_volume) o.target_volume = *target_volume;
+            o.method = parse_method(method);
+            o.threads = threads;
+            DeformResult r;
+            {
+              py::gil_scoped_release release;
+              r = d.deform(P, o);
+            }
+            return result_to_python(std::move(r));
+          },
+          py::arg("control_points"), py::arg("preserve_volume") = true, py::arg("axes") = "xyz",
+          py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
+          py::arg("constraints") = std::vector<std::tuple<Index, Vector3d, Vector3d>>{},
+          py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0);
+}
+
+}  // namespace vpffd::bindings

@@ -1,0 +1,85 @@
+// Lattice structure, knots, basis functions and the plain FFD of points.
+
+#include "common.h"
+
+namespace vpffd::bindings {
+
+void bind_lattice(py::module_& m) {
+  py::class_<Lattice>(m, "LatticeSpec", "Structure of a B-spline lattice: degrees, knots, world box.")
+      .def(py::init([](std::array<int, 3> degree, std::array<std::vector<double>, 3> knots, Vector3d box_min,
+                       Vector3d box_max) {
+             Lattice L;
+             L.degree = degree;
+             L.knots = std::move(knots);
+             L.box_min = box_min;
+             L.box_max = box_max;
+             validate_lattice(L);
+             return L;
+           }),
+           py::arg("degree"), py::arg("knots"), py::arg("box_min"), py::arg("box_max"))
+      .def_readonly("degree", &Lattice::degree)
+      .def_readonly("knots", &Lattice::knots)
+      .def_readonly("box_min", &Lattice::box_min)
+      .def_readonly("box_max", &Lattice::box_max)
+      .def_property_readonly("shape", &Lattice::dims)
+      .def("rest_control_points", &rest_control_points, "(N, 3) control points at the Greville abscissae.")
+      .def(
+          "parameters",
+          [](const Lattice& L, RefV X) {
+            RowMatrixX3d U(X.rows(), 3);
+            for (Index r = 0; r < X.rows(); ++r) U.row(r) = parameter_of(L, X.row(r).transpose()).transpose();
+            return U;
+          },
+          py::arg("points"), "(n, 3) parameters (u, v, w) of world points.");
+
+  m.def("clamped_uniform_knots", &clamped_uniform_knots, py::arg("n"), py::arg("degree"), py::arg("lo") = 0.0,
+        py::arg("hi") = 1.0);
+  m.def("greville", [](const std::vector<double>& t, int n, int d) { return greville(t, n, d); });
+  m.def(
+      "basis_functions",
+      [](const std::vector<double>& t, int degree, const std::vector<double>& u, bool derivatives) {
+        // All n basis functions at each u (dense (len(u), n)), from Cox-de Boor: the reference.
+        const int n = static_cast<int>(t.size()) - degree - 1;
+        validate_knots(t, n, degree, 'u');
+        RowMatrixXd B = RowMatrixXd::Zero(u.size(), n);
+        double N[kMaxDegree + 1], dN[kMaxDegree + 1];
+        for (size_t q = 0; q < u.size(); ++q) {
+          VPFFD_CHECK(std::isfinite(u[q]), "basis_functions: u[", q, "] is not finite");
+          const int s = find_span(t, n, degree, u[q]);
+          basis_values_derivs(t, degree, s, u[q], N, dN);
+          for (int r = 0; r <= degree; ++r) B(q, s - degree + r) = derivatives ? dN[r] : N[r];
+        }
+        return B;
+      },
+      py::arg("knots"), py::arg("degree"), py::arg("u"), py::arg("derivatives") = false,
+      "Dense (len(u), n) matrix of B-spline basis values (or first derivatives) by Cox-de Boor.");
+  m.def(
+      "basis_functions_fast",
+      [](const std::vector<double>& t, int degree, const std::vector<double>& u) {
+        // The per-span power form the kernels use, for comparison with basis_functions.
+        const int n = static_cast<int>(t.size()) - degree - 1;
+        validate_knots(t, n, degree, 'u');
+        const SpanPolynomials sp = span_polynomials(t, n, degree);
+        RowMatrixXd B = RowMatrixXd::Zero(u.size(), n);
+        double N[kMaxDegree + 1];
+        for (size_t q = 0; q < u.size(); ++q) {
+          const int s = find_span(t, n, degree, u[q]);
+          const double tau = (u[q] - t[s]) * sp.inv_width[s - degree];
+          eval_span(sp.span_coef(s), degree + 1, tau, N);
+          for (int r = 0; r <= degree; ++r) B(q, s - degree + r) = N[r];
+        }
+        return B;
+      },
+      py::arg("knots"), py::arg("degree"), py::arg("u"));
+  m.def(
+      "ffd_points",
+      [](const Lattice& L, RefV P, RefV X, const std::string& outside, int threads) {
+        const OutsidePolicy pol = parse_outside_policy(outside);
+        py::gil_scoped_release release;
+        return ffd_points(L, P, X, pol, threads);
+      },
+      py::arg("lattice"), py::arg("control_points"), py::arg("points"), py::arg("outside") = "error",
+      py::arg("threads") = 0);
+}
+
+}  // namespace vpffd::bindings

@@ -1,0 +1,46 @@
+// Mesh checks, volume and the built-in shapes.
+
+#include "common.h"
+
+namespace vpffd::bindings {
+
+void bind_mesh(py::module_& m) {
+  m.def("validate_mesh", [](RefV V, RefF F) { validate_mesh(V, F, "Mesh"); }, py::arg("vertices"),
+        py::arg("faces"));
+  m.def(
+      "edge_report",
+      [](RefF F) {
+        const EdgeReport r = edge_report(F);
+        py::dict d;
+        d["edges"] = r.edges;
+        d["boundary_edges"] = r.boundary_edges;
+        d["nonmanifold_edges"] = r.nonmanifold_edges;
+        d["misoriented_edges"] = r.misoriented_edges;
+        return d;
+      },
+      py::arg("faces"));
+  m.def(
+      "signed_volume",
+      [](RefV V, RefF F, Vector3d origin) {
+        py::gil_scoped_release release;
+        return signed_volume(V, F, origin);
+      },
+      py::arg("vertices"), py::arg("faces"), py::arg("origin") = Vector3d::Zero());
+  m.def("require_closed", [](RefF F, const char* where) { require_closed(edge_report(F), where); });
+  m.def(
+      "icosphere",
+      [](int s, double r) {
+        TriMesh t = icosphere(s, r);
+        return py::make_tuple(std::move(t.V), std::move(t.F));
+      },
+      py::arg("subdivisions"), py::arg("radius") = 1.0);
+  m.def(
+      "box_mesh",
+      [](int n, double size) {
+        TriMesh t = box_mesh(n, size);
+        return py::make_tuple(std::move(t.V), std::move(t.F));
+      },
+      py::arg("n"), py::arg("size") = 1.0);
+}
+
+}  // namespace vpffd::bindings

@@ -1,0 +1,43 @@
+#pragma once
+// Shared pieces of the binding files: dtype conventions and conversions.
+// Inputs arrive as Eigen::Ref of row-major float64 / int32 matrices: the Python
+// layer has already converted and validated them, so no hidden copy happens here.
+
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "vpffd/vpffd.h"
+
+namespace py = pybind11;
+
+namespace vpffd::bindings {
+
+using RefV = Eigen::Ref<const RowMatrixX3d>;
+using RefF = Eigen::Ref<const RowMatrixX3i>;
+
+/// Moves a CSR matrix into a (data, indices, indptr, shape) tuple of numpy arrays.
+inline py::tuple csr_to_python(CsrMatrix&& A) {
+  auto move_vec = [](auto&& v) {
+    using T = typename std::decay_t<decltype(v)>::value_type;
+    auto* heap = new std::vector<T>(std::move(v));
+    py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+    return py::array_t<T>(static_cast<py::ssize_t>(heap->size()), heap->data(), owner);
+  };
+  return py::make_tuple(move_vec(std::move(A.values)), move_vec(std::move(A.indices)),
+                        move_vec(std::move(A.indptr)), py::make_tuple(A.rows, A.cols));
+}
+
+/// Copies a CSR matrix into the same tuple (for one kept by the C++ side).
+inline py::tuple csr_copy_to_python(const CsrMatrix& A) {
+  CsrMatrix c = A;
+  return csr_to_python(std::move(c));
+}
+
+void bind_lattice(py::module_& m);
+void bind_mesh(py::module_& m);
+void bind_deformer(py::module_& m);
+void bind_edits(py::module_& m);
+
+}  // namespace vpffd::bindings

@@ -1,0 +1,86 @@
+"""Conversion and validation of array arguments (shared by the public classes).
+
+Every public entry point converts its inputs here, so the C++ core receives
+C-contiguous float64 / int32 arrays and the caller's arrays are never written to.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _core
+
+InvalidInputError = _core.InvalidInputError
+
+
+def points(a, name: str, rows: int | None = None, allow_empty: bool = False) -> np.ndarray:
+    """(n, 3) float64 C-contiguous copy of ``a``; raises TypeError/ValueError."""
+    if a is None:
+        raise TypeError(f"{name}: expected an (n, 3) array of numbers, got None")
+    arr = np.asarray(a)
+    if arr.dtype == object or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise TypeError(f"{name}: expected real numbers, got dtype {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise InvalidInputError(f"{name}: expected shape (n, 3), got {arr.shape}")
+    if rows is not None and arr.shape[0] != rows:
+        raise InvalidInputError(f"{name}: expected {rows} rows, got {arr.shape[0]}")
+    if arr.shape[0] == 0 and not allow_empty:
+        raise InvalidInputError(f"{name}: is empty")
+    out = np.array(arr, dtype=np.float64, order="C", copy=True)
+    if not np.isfinite(out).all():
+        bad = int(np.argwhere(~np.isfinite(out))[0][0])
+        raise InvalidInputError(f"{name}: row {bad} contains NaN or Inf")
+    return out
+
+
+def faces(a, n_vertices: int, name: str = "faces") -> np.ndarray:
+    """(m, 3) int32 C-contiguous copy of triangle indices, range-checked."""
+    if a is None:
+        raise TypeError(f"{name}: expected an (m, 3) integer array, got None")
+    arr = np.asarray(a)
+    if not np.issubdtype(arr.dtype, np.integer):
+        raise TypeError(f"{name}: expected integer vertex indices, got dtype {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise InvalidInputError(f"{name}: expected shape (m, 3) of triangles, got {arr.shape}")
+    if arr.shape[0] == 0:
+        raise InvalidInputError(f"{name}: the mesh has no faces")
+    lo, hi = int(arr.min()), int(arr.max())
+    if lo < 0 or hi >= n_vertices:
+        bad = int(np.argwhere((arr < 0) | (arr >= n_vertices))[0][0])
+        raise InvalidInputError(
+            f"{name}: face {bad} refers to vertex {int(arr[bad][(arr[bad] < 0) | (arr[bad] >= n_vertices)][0])}, "
+            f"but there are {n_vertices} vertices (valid: 0..{n_vertices - 1})")
+    return np.ascontiguousarray(arr, dtype=np.int32).copy()
+
+
+def control_points(a, n: int, shape3: tuple, name: str = "control_points") -> np.ndarray:
+    """(N, 3) float64 copy from an (nu, nv, nw, 3) or (N, 3) array."""
+    arr = np.asarray(a)
+    if arr.ndim == 4:
+        if arr.shape != (*shape3, 3):
+            raise InvalidInputError(f"{name}: expected shape {(*shape3, 3)} or ({n}, 3), got {arr.shape}")
+        arr = arr.reshape(-1, 3)
+    return points(arr, name, rows=n)
+
+
+def per_control_point(a, n: int, shape3: tuple, name: str, dtype) -> np.ndarray:
+    """One value per control point from an (nu, nv, nw) or (N,) array."""
+    arr = np.asarray(a)
+    if arr.shape not in ((n,), tuple(shape3)):
+        raise InvalidInputError(f"{name}: expected shape {tuple(shape3)} or ({n},), got {arr.shape}")
+    if dtype is bool:
+        if arr.dtype != bool:
+            raise TypeError(f"{name}: expected a boolean mask, got dtype {arr.dtype}")
+        return np.ascontiguousarray(arr.reshape(-1), dtype=np.uint8)
+    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise TypeError(f"{name}: expected real numbers, got dtype {arr.dtype}")
+    return np.array(arr.reshape(-1), dtype=np.float64)
+
+
+def vector3(a, name: str) -> np.ndarray:
+    arr = np.asarray(a, dtype=np.float64) if not isinstance(a, np.ndarray) else a
+    if arr.shape != (3,):
+        raise InvalidInputError(f"{name}: expected 3 numbers, got shape {np.shape(a)}")
+    arr = np.array(arr, dtype=np.float64)
+    if not np.isfinite(arr).all():
+        raise InvalidInputError(f"{name}: contains NaN or Inf")
+    return arr

@@ -1,0 +1,244 @@
+"""Volume-preserving deformation of one mesh by one lattice."""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import _arrays, _core
+from .lattice import Lattice
+from .mesh import Mesh
+
+InvalidInputError = _core.InvalidInputError
+BackendUnavailableError = _core.BackendUnavailableError
+
+_CPU_BACKENDS = ("serial", "openmp")
+
+
+def available_backends() -> list:
+    """Backends this build can run here, best first for ``backend='auto'``."""
+    out = []
+    if _core.has_openmp():
+        out.append("openmp")
+    out.append("serial")
+    return out
+
+
+def _resolve_backend(backend: str, threads):
+    if not isinstance(backend, str):
+        raise TypeError(f"backend: expected a string, got {type(backend).__name__}")
+    if backend == "auto":
+        backend = "openmp" if _core.has_openmp() and (os.cpu_count() or 1) > 1 else "serial"
+    if backend not in _CPU_BACKENDS:
+        known = ", ".join(repr(b) for b in ("auto", *_CPU_BACKENDS))
+        raise InvalidInputError(f"backend: unknown backend {backend!r}; known: {known}")
+    if backend == "openmp" and not _core.has_openmp():
+        raise BackendUnavailableError("backend 'openmp': this build has no OpenMP")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
+                                or threads < 1):
+        raise InvalidInputError(f"threads: expected a positive integer or None, got {threads!r}")
+    n = 1 if backend == "serial" else int(threads or 0)
+    return backend, n
+
+
+@dataclass
+class DeformResult:
+    """One deformed frame.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64
+        the corrected mesh vertices.
+    control_points, offsets : (nu, nv, nw, 3) float64
+        corrected control points and the offsets delta added to the input ones.
+    volume : float
+        enclosed volume of ``vertices`` (measured, not predicted).
+    volume_before : float
+        volume after the plain FFD, before any correction.
+    target_volume, rest_volume : float
+    constraint_error : float
+        largest coordinate error of the point constraints (0 without constraints).
+    steps : list of dict
+        per axis step: axis, volume_before, share, sum_squares, max_offset.
+    backend, method : str
+    """
+    vertices: np.ndarray
+    control_points: np.ndarray
+    offsets: np.ndarray
+    volume: float
+    volume_before: float
+    target_volume: float
+    rest_volume: float
+    constraint_error: float
+    steps: list = field(default_factory=list)
+    backend: str = ""
+    method: str = ""
+
+    @property
+    def volume_error(self) -> float:
+        """|volume - target| / |target| (NaN without a target)."""
+        return abs(self.volume - self.target_volume) / abs(self.target_volume)
+
+    @property
+    def volume_change_before(self) -> float:
+        """Relative volume change of the plain FFD against the rest volume."""
+        return (self.volume_before - self.rest_volume) / self.rest_volume
+
+
+class Deformer:
+    """Deforms ``mesh`` with ``lattice``, keeping its enclosed volume.
+
+    Construction embeds the mesh once (a knot span and a local parameter per
+    vertex and axis, 36 bytes per vertex); every ``deform`` call then costs one
+    FFD plus, per corrected axis, one pass over the faces and two over the vertices.
+
+    Parameters
+    ----------
+    mesh : Mesh, (vertices, faces) pair, or object with vertices/faces
+    lattice : Lattice
+        its box must contain the mesh (see ``outside``).
+    backend : {"auto", "openmp", "serial"}
+        "auto" takes the fastest available; ``available_backends()`` lists them.
+    outside : {"error", "extrapolate"}
+        vertices outside the lattice box raise (default) or follow the boundary
+        polynomial pieces.
+    threads : int, optional
+        OpenMP threads (default: all). Results do not depend on the thread count.
+    """
+
+    def __init__(self, mesh, lattice: Lattice, backend: str = "auto", outside: str = "error", threads=None):
+        if not isinstance(lattice, Lattice):
+            raise TypeError(f"lattice: expected a vpffd.Lattice, got {type(lattice).__name__}")
+        self.mesh = Mesh.from_any(mesh)
+        self.lattice = lattice
+        self.backend, self._threads = _resolve_backend(backend, threads)
+        self._d = _core.Deformer(self.mesh.vertices, self.mesh.faces, lattice._spec, outside, self._threads)
+
+    # --- properties -----------------------------------------------------------
+    @property
+    def rest_volume(self) -> float:
+        """Volume of the rest mesh (raises for an open mesh)."""
+        return self._d.rest_volume
+
+    @property
+    def bytes_per_vertex(self) -> float:
+        """Per-vertex data kept between frames, in bytes."""
+        return self._d.bytes_per_vertex
+
+    @property
+    def n_control_points(self) -> int:
+        return self._d.n_control_points
+
+    # --- frames ---------------------------------------------------------------
+    def _P(self, control_points):
+        return self.lattice._control(control_points)
+
+    def ffd(self, control_points=None) -> np.ndarray:
+        """Plain FFD of the vertices: (V, 3). ``control_points`` default to the lattice's."""
+        return self._d.ffd(self._P(control_points), self._threads)
+
+    def jacobians(self, control_points=None) -> np.ndarray:
+        """(V, 3, 3) Jacobians dD/dx at the vertices (J[v, r, c] = dD_r/dx_c)."""
+        return self._d.jacobians(self._P(control_points), self._threads).reshape(-1, 3, 3)
+
+    def basis_matrix(self) -> sp.csr_matrix:
+        """(V, N) scipy CSR basis matrix B: ``ffd(P) == B @ P.reshape(-1, 3)``.
+        Column c is control point ``control_points.reshape(-1, 3)[c]``."""
+        data, indices, indptr, shape = self._d.basis_matrix(self._threads)
+        return sp.csr_matrix((data, indices, indptr), shape=shape)
+
+    def face_matrix(self) -> sp.csr_matrix:
+        """(N, F) the paper's coefficient matrix: alpha = M @ n_x, n_x the x
+        components of the unnormalised face normals (Section 6.2)."""
+        data, indices, indptr, shape = self._d.face_matrix(self._threads)
+        return sp.csr_matrix((data, indices, indptr), shape=shape)
+
+    def face_matrix_nnz(self) -> int:
+        """Non-zeros of the paper's face matrix (its Table 1); builds it once."""
+        return self._d.face_matrix_nnz(self._threads)
+
+    def volume_coefficients(self, vertices, axis, method: str = "traversal"):
+        """(alpha, volume): the N coefficients of ``axis`` ('x', 'y', 'z' or 0..2) for
+        the mesh with the given current vertices (V, 3), and its volume. Moving the
+        control points by delta along that axis changes the volume by alpha @ delta."""
+        a = {"x": 0, "y": 1, "z": 2}.get(axis, axis)
+        if a not in (0, 1, 2):
+            raise InvalidInputError(f"axis: expected 'x', 'y', 'z' or 0..2, got {axis!r}")
+        X = _arrays.points(vertices, "volume_coefficients: vertices", rows=self.mesh.n_vertices)
+        return self._d.volume_coefficients(X, a, method, self._threads)
+
+    def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", weights=None,
+               fixed=None, constraints=None, target_volume=None, method: str = "traversal") -> DeformResult:
+        """Deforms the mesh and corrects its volume.
+
+        Parameters
+        ----------
+        control_points : (nu, nv, nw, 3) or (N, 3), optional
+            the user's lattice; default ``lattice.control_points``. Not modified.
+        preserve_volume : bool
+            correct the volume to ``target_volume`` (exactly, to rounding).
+        axes : str
+            axes the control points may move along, in order: "xyz" (default),
+            "xy" (horizontal only), "z", ... Each takes an equal share of the gap.
+        weights : (nu, nv, nw) or (N,) positive floats, optional
+            weighted least squares (Remark 2): large weights keep points still.
+        fixed : (nu, nv, nw) or (N,) bool, optional
+            control points that must not move.
+        constraints : list of (source, target), optional
+            point constraints (Problem 2): ``source`` is a vertex index or a
+            rest-space point (3,), ``target`` the (3,) world position it must reach.
+            Any number; each must move only along corrected axes.
+        target_volume : float, optional
+            default: the rest volume.
+        method : {"traversal", "csr"}
+            how the coefficients are computed (same result to ~1e-12).
+
+        Raises
+        ------
+        InvalidInputError
+            bad shapes, NaN, weights <= 0, an open mesh with preserve_volume, ...
+        SolverError
+            no correction exists (all coefficients zero, dependent constraints,
+            more conditions than free control points).
+        """
+        if not isinstance(preserve_volume, (bool, np.bool_)):
+            raise TypeError(f"preserve_volume: expected a bool, got {type(preserve_volume).__name__}")
+        if not isinstance(axes, str):
+            raise TypeError(f"axes: expected a string such as 'xyz', got {type(axes).__name__}")
+        n, shape = self.n_control_points, self.lattice.shape
+        P = self._P(control_points)
+        w = None if weights is None else _arrays.per_control_point(weights, n, shape, "weights", float)
+        fx = None if fixed is None else _arrays.per_control_point(fixed, n, shape, "fixed", bool)
+        cons = []
+        for i, c in enumerate(constraints or []):
+            try:
+                src, tgt = c
+            except (TypeError, ValueError):
+                raise InvalidInputError(f"constraints[{i}]: expected a (source, target) pair") from None
+            tgt = _arrays.vector3(tgt, f"constraints[{i}] target")
+            if isinstance(src, (int, np.integer)) and not isinstance(src, bool):
+                if not 0 <= src < self.mesh.n_vertices:
+                    raise InvalidInputError(f"constraints[{i}]: vertex {src} out of range "
+                                            f"(the mesh has {self.mesh.n_vertices} vertices)")
+                cons.append((int(src), np.zeros(3), tgt))
+            else:
+                cons.append((-1, _arrays.vector3(src, f"constraints[{i}] source"), tgt))
+        tv = None
+        if target_volume is not None:
+            tv = float(target_volume)
+            if not np.isfinite(tv):
+                raise InvalidInputError(f"target_volume: expected a finite number, got {target_volume}")
+        r = self._d.deform(P, bool(preserve_volume), axes, w, fx, cons, tv, method, self._threads)
+        rest = self._d.rest_volume if self._d.is_closed else float("nan")
+        return DeformResult(
+            vertices=r["vertices"],
+            control_points=r["control_points"].reshape(*shape, 3),
+            offsets=r["offsets"].reshape(*shape, 3),
+            volume=r["volume"], volume_before=r["volume_before"], target_volume=r["target_volume"],
+            rest_volume=rest, constraint_error=r["constraint_error"], steps=r["steps"],
+            backend=self.backend, method=method)
+
+    def __repr__(self) -> str:
+        return f"Deformer({self.mesh!r}, {self.lattice!r}, backend={self.backend!r})"

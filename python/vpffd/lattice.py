@@ -1,0 +1,149 @@
+"""Trivariate B-spline lattices."""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _arrays, _core
+
+InvalidInputError = _core.InvalidInputError
+
+
+def _triple(x, name, kind=int):
+    if np.ndim(x) == 0:
+        x = (x, x, x)
+    x = tuple(x)
+    if len(x) != 3:
+        raise InvalidInputError(f"{name}: expected one value or three, got {len(x)}")
+    for v in x:
+        if kind is int and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
+            raise TypeError(f"{name}: expected integers, got {v!r}")
+    return tuple(kind(v) for v in x)
+
+
+class Lattice:
+    """A trivariate B-spline lattice over an axis-aligned world box.
+
+    The box ``[box_min, box_max]`` is mapped affinely onto the parameter domain
+    ``[t_d, t_n]`` of each axis' knot vector; a point keeps that parameter for
+    ever, and the deformed point is ``sum_ijk B_i(u) B_j(v) B_k(w) P_ijk``.
+
+    Parameters
+    ----------
+    box_min, box_max : (3,) float
+        world-space corners (units of the mesh).
+    shape : int or (nu, nv, nw)
+        control points per axis, each at least degree + 1.
+    degree : int or (du, dv, dw), 1..5
+    knots : None or three 1-D arrays
+        knot vectors of n + degree + 1 values (any non-decreasing sequence with
+        interior multiplicity <= degree); default open-uniform (clamped) on [0, 1].
+
+    Attributes
+    ----------
+    control_points : ndarray (nu, nv, nw, 3) float64, writable
+        the current control points; starts at ``rest_points``.
+    rest_points : ndarray (nu, nv, nw, 3) float64, read-only
+        control points of the identity deformation (Greville abscissae).
+    """
+
+    def __init__(self, box_min, box_max, shape=(8, 8, 8), degree=3, knots=None):
+        box_min = _arrays.vector3(box_min, "Lattice: box_min")
+        box_max = _arrays.vector3(box_max, "Lattice: box_max")
+        shape = _triple(shape, "Lattice: shape")
+        degree = _triple(degree, "Lattice: degree")
+        for a, (n, d) in enumerate(zip(shape, degree)):
+            if not 1 <= d <= 5:
+                raise InvalidInputError(f"Lattice: degree {d} along {'xyz'[a]} not in [1, 5]")
+            if n < d + 1:
+                raise InvalidInputError(
+                    f"Lattice: shape {n} along {'xyz'[a]} is too small for degree {d} (need at least {d + 1})")
+        if knots is None:
+            knots = [_core.clamped_uniform_knots(n, d) for n, d in zip(shape, degree)]
+        else:
+            if len(knots) != 3:
+                raise InvalidInputError(f"Lattice: knots must be three vectors, got {len(knots)}")
+            knots = [np.asarray(k, dtype=np.float64).reshape(-1).tolist() for k in knots]
+        self._spec = _core.LatticeSpec(list(degree), knots, box_min, box_max)
+        self.shape = tuple(self._spec.shape)
+        self.degree = degree
+        rest = self._spec.rest_control_points().reshape(*self.shape, 3)
+        rest.setflags(write=False)
+        self._rest = rest
+        self.control_points = rest.copy()
+
+    @classmethod
+    def around(cls, points, shape=(8, 8, 8), degree=3, padding=0.05, knots=None) -> "Lattice":
+        """The identity lattice around the bounding box of ``points`` ((n, 3) or a
+        Mesh), enlarged on each side by ``padding`` times the box's extent.
+
+        Raises InvalidInputError when the points have no extent along an axis
+        (a flat point set cannot be embedded in a solid lattice)."""
+        if hasattr(points, "vertices"):
+            points = points.vertices
+        P = _arrays.points(points, "Lattice.around: points")
+        if not (np.isfinite(padding) and padding >= 0):
+            raise InvalidInputError(f"Lattice.around: padding must be finite and >= 0, got {padding}")
+        lo, hi = P.min(axis=0), P.max(axis=0)
+        ext = hi - lo
+        for a in range(3):
+            if not ext[a] > 0:
+                raise InvalidInputError(f"Lattice.around: the points have zero extent along {'xyz'[a]}")
+        return cls(lo - padding * ext, hi + padding * ext, shape=shape, degree=degree, knots=knots)
+
+    # --- structure ------------------------------------------------------------
+    @property
+    def knots(self) -> tuple:
+        """Three knot vectors (float64 arrays)."""
+        return tuple(np.asarray(k) for k in self._spec.knots)
+
+    @property
+    def box_min(self) -> np.ndarray:
+        return np.array(self._spec.box_min)
+
+    @property
+    def box_max(self) -> np.ndarray:
+        return np.array(self._spec.box_max)
+
+    @property
+    def n_control_points(self) -> int:
+        return int(np.prod(self.shape))
+
+    @property
+    def rest_points(self) -> np.ndarray:
+        """(nu, nv, nw, 3) identity control points, read-only."""
+        return self._rest
+
+    @property
+    def center(self) -> np.ndarray:
+        return 0.5 * (self.box_min + self.box_max)
+
+    def reset(self) -> None:
+        """Puts the control points back at rest."""
+        self.control_points = self._rest.copy()
+
+    def copy(self) -> "Lattice":
+        other = object.__new__(Lattice)
+        other.__dict__.update(self.__dict__)
+        other.control_points = np.array(self.control_points, dtype=np.float64)
+        return other
+
+    def parameters(self, points) -> np.ndarray:
+        """(n, 3) parameters (u, v, w) of world points."""
+        return self._spec.parameters(_arrays.points(points, "Lattice.parameters: points"))
+
+    def deform_points(self, points, control_points=None, outside="error") -> np.ndarray:
+        """Plain FFD of arbitrary rest-space points: (n, 3) -> (n, 3).
+
+        ``outside='extrapolate'`` continues the boundary polynomial pieces for points
+        outside the box instead of raising."""
+        P = self._control(control_points)
+        X = _arrays.points(points, "Lattice.deform_points: points")
+        return _core.ffd_points(self._spec, P, X, outside)
+
+    def _control(self, control_points) -> np.ndarray:
+        cp = self.control_points if control_points is None else control_points
+        return _arrays.control_points(cp, self.n_control_points, self.shape)
+
+    def __repr__(self) -> str:
+        return (f"Lattice(shape={self.shape}, degree={self.degree}, box_min={self.box_min.tolist()}, "
+                f"box_max={self.box_max.tolist()})")

@@ -1,0 +1,96 @@
+"""Triangle meshes as plain numpy arrays."""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _arrays, _core
+
+
+class Mesh:
+    """A triangle mesh: ``vertices`` (V, 3) float64 and ``faces`` (F, 3) int32.
+
+    Both arrays are copied on construction and stored read-only, so a Mesh never
+    changes under a Deformer that uses it.
+
+    Parameters
+    ----------
+    vertices : array_like, (V, 3), real
+    faces : array_like, (F, 3), integer indices into ``vertices``
+
+    Raises
+    ------
+    TypeError
+        for non-numeric vertices or non-integer faces.
+    vpffd.InvalidInputError (a ValueError)
+        for wrong shapes, NaN/Inf, an empty mesh or face indices out of range.
+    """
+
+    def __init__(self, vertices, faces):
+        V = _arrays.points(vertices, "Mesh: vertices")
+        F = _arrays.faces(faces, V.shape[0], "Mesh: faces")
+        V.setflags(write=False)
+        F.setflags(write=False)
+        self._V, self._F = V, F
+        self._edges = None
+
+    @classmethod
+    def from_any(cls, obj) -> "Mesh":
+        """A Mesh from a Mesh, a (vertices, faces) pair, or any object with
+        ``vertices`` and ``faces`` arrays (trimesh and friends)."""
+        if isinstance(obj, Mesh):
+            return obj
+        if isinstance(obj, tuple) and len(obj) == 2:
+            return cls(*obj)
+        if hasattr(obj, "vertices") and hasattr(obj, "faces"):
+            return cls(np.asarray(obj.vertices), np.asarray(obj.faces))
+        raise TypeError(f"expected a vpffd.Mesh, a (vertices, faces) pair or an object with vertices and faces, "
+                        f"got {type(obj).__name__}")
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """(V, 3) float64, read-only."""
+        return self._V
+
+    @property
+    def faces(self) -> np.ndarray:
+        """(F, 3) int32, read-only."""
+        return self._F
+
+    @property
+    def n_vertices(self) -> int:
+        return self._V.shape[0]
+
+    @property
+    def n_faces(self) -> int:
+        return self._F.shape[0]
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """(2, 3): minimum and maximum corner of the bounding box."""
+        return np.stack([self._V.min(axis=0), self._V.max(axis=0)])
+
+    def edge_report(self) -> dict:
+        """Counts of edges, boundary edges, non-manifold edges and edges used twice
+        in the same direction (inconsistent winding)."""
+        if self._edges is None:
+            self._edges = _core.edge_report(self._F)
+        return dict(self._edges)
+
+    @property
+    def is_closed(self) -> bool:
+        """True when every edge has exactly two faces, wound consistently."""
+        e = self.edge_report()
+        return e["boundary_edges"] == 0 and e["nonmanifold_edges"] == 0 and e["misoriented_edges"] == 0
+
+    @property
+    def volume(self) -> float:
+        """Enclosed (signed) volume, positive for outward-facing faces.
+
+        Raises vpffd.InvalidInputError for a mesh that is not closed, saying how
+        many boundary (or non-manifold, or misoriented) edges it has."""
+        _core.require_closed(self._F, "Mesh.volume")
+        centre = 0.5 * (self._V.min(axis=0) + self._V.max(axis=0))
+        return _core.signed_volume(self._V, self._F, centre)
+
+    def __repr__(self) -> str:
+        return f"Mesh({self.n_vertices} vertices, {self.n_faces} faces)"
