@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -120,7 +121,7 @@ class Deformer:
     @property
     def rest_volume(self) -> float:
         """Volume of the rest mesh (raises for an open mesh)."""
-        return self._d.rest_volume
+        return self._d.rest_volume()
 
     @property
     def bytes_per_vertex(self) -> float:
@@ -170,7 +171,8 @@ class Deformer:
         return self._d.volume_coefficients(X, a, method, self._threads)
 
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", weights=None,
-               fixed=None, constraints=None, target_volume=None, method: str = "traversal") -> DeformResult:
+               fixed=None, constraints=None, target_volume=None, method: str = "traversal",
+               allow_open: bool = False) -> DeformResult:
         """Deforms the mesh and corrects its volume.
 
         Parameters
@@ -194,6 +196,9 @@ class Deformer:
             default: the rest volume.
         method : {"traversal", "csr"}
             how the coefficients are computed (same result to ~1e-12).
+        allow_open : bool
+            correct the "volume" of a mesh that is not closed (with a warning):
+            the cone volume from the lattice centre, which depends on that centre.
 
         Raises
         ------
@@ -230,8 +235,11 @@ class Deformer:
             tv = float(target_volume)
             if not np.isfinite(tv):
                 raise InvalidInputError(f"target_volume: expected a finite number, got {target_volume}")
-        r = self._d.deform(P, bool(preserve_volume), axes, w, fx, cons, tv, method, self._threads)
-        rest = self._d.rest_volume if self._d.is_closed else float("nan")
+        if allow_open and preserve_volume and not self._d.is_closed:
+            warnings.warn("deform: the mesh is not closed; the volume kept is that of the cone from the lattice "
+                          "centre, which depends on where that centre is", stacklevel=2)
+        r = self._d.deform(P, bool(preserve_volume), axes, w, fx, cons, tv, method, self._threads, bool(allow_open))
+        rest = self._d.rest_volume(True) if (self._d.is_closed or allow_open) else float("nan")
         return DeformResult(
             vertices=r["vertices"],
             control_points=r["control_points"].reshape(*shape, 3),

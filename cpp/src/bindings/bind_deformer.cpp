@@ -46,7 +46,7 @@ void bind_deformer(py::module_& m) {
       .def_property_readonly("n_faces", &Deformer::n_faces)
       .def_property_readonly("n_control_points", &Deformer::n_control_points)
       .def_property_readonly("is_closed", &Deformer::is_closed)
-      .def_property_readonly("rest_volume", &Deformer::rest_volume)
+      .def("rest_volume", &Deformer::rest_volume, py::arg("allow_open") = false)
       .def_property_readonly("bytes_per_vertex", &Deformer::bytes_per_vertex)
       .def_property_readonly("origin", &Deformer::origin)
       .def(
@@ -109,7 +109,7 @@ void bind_deformer(py::module_& m) {
           [](const Deformer& d, RefV P, bool preserve_volume, const std::string& axes,
              std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
              const std::vector<std::tuple<Index, Vector3d, Vector3d>>& constraints,
-             std::optional<double> target_volume, const std::string& method, int threads) {
+             std::optional<double> target_volume, const std::string& method, int threads, bool allow_open) {
             CorrectionOptions o;
             o.preserve_volume = preserve_volume;
             o.axes = parse_axes(axes);
@@ -119,6 +119,7 @@ void bind_deformer(py::module_& m) {
             if (target_volume) o.target_volume = *target_volume;
             o.method = parse_method(method);
             o.threads = threads;
+            o.allow_open = allow_open;
             DeformResult r;
             {
               py::gil_scoped_release release;
@@ -129,7 +130,8 @@ void bind_deformer(py::module_& m) {
           py::arg("control_points"), py::arg("preserve_volume") = true, py::arg("axes") = "xyz",
           py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
           py::arg("constraints") = std::vector<std::tuple<Index, Vector3d, Vector3d>>{},
-          py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0);
+          py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0,
+          py::arg("allow_open") = false);
 }
 
 }  // namespace vpffd::bindings

@@ -39,5 +39,8 @@ void bind_lattice(py::module_& m);
 void bind_mesh(py::module_& m);
 void bind_deformer(py::module_& m);
 void bind_edits(py::module_& m);
+void bind_vulkan(py::module_& m);  // bind_vulkan.cpp, with vpffd::vulkan
+void bind_io(py::module_& m);      // bind_io.cpp, with vpffd::io (OpenMesh)
+void bind_embree(py::module_& m);  // bind_embree.cpp, with vpffd::embree
 
 }  // namespace vpffd::bindings

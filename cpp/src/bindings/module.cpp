@@ -21,4 +21,24 @@ PYBIND11_MODULE(_core, m) {
   vpffd::bindings::bind_mesh(m);
   vpffd::bindings::bind_deformer(m);
   vpffd::bindings::bind_edits(m);
+
+  // Optional parts: each flag tells Python whether the part was built.
+#ifdef VPFFD_HAS_VULKAN
+  vpffd::bindings::bind_vulkan(m);
+  m.attr("has_vulkan") = true;
+#else
+  m.attr("has_vulkan") = false;
+#endif
+#ifdef VPFFD_HAS_OPENMESH
+  vpffd::bindings::bind_io(m);
+  m.attr("has_openmesh") = true;
+#else
+  m.attr("has_openmesh") = false;
+#endif
+#ifdef VPFFD_HAS_EMBREE
+  vpffd::bindings::bind_embree(m);
+  m.attr("has_embree") = true;
+#else
+  m.attr("has_embree") = false;
+#endif
 }

@@ -57,6 +57,9 @@ struct CorrectionOptions {
   double target_volume = std::numeric_limits<double>::quiet_NaN();  ///< NaN: the rest volume
   CoefficientMethod method = CoefficientMethod::Traversal;
   int threads = 0;  ///< 0: all OpenMP threads; 1: serial
+  /// Correct the volume of a mesh that is not closed. The "volume" of an open
+  /// surface is that of the cone from the lattice centre and depends on it.
+  bool allow_open = false;
 };
 
 /// What one axis step did.

@@ -68,9 +68,10 @@ class Deformer {
   /// Reference point of the volume sums (the lattice box centre).
   const Vector3d& origin() const { return origin_; }
 
-  /// Enclosed volume of the rest mesh. @throws InvalidInputError if it is not closed.
-  double rest_volume() const {
-    require_closed(edges_, "rest_volume");
+  /// Enclosed volume of the rest mesh. @throws InvalidInputError if it is not
+  /// closed, unless `allow_open` (then: the cone volume from origin()).
+  double rest_volume(bool allow_open = false) const {
+    if (!allow_open) require_closed(edges_, "rest_volume");
     return rest_volume_;
   }
 
@@ -112,14 +113,14 @@ class Deformer {
     return *face_matrix_;
   }
 
-  /// Volume coefficients of `axis` (0, 1, 2) for the current vertices X (#V x 3).
+  /// Volume coefficients of `axis` (0, 1, 2) for the current vertices X (#V x 3)
+  /// (for an open mesh: of the cone volume from origin()).
   AxisCoefficients volume_coefficients(const Eigen::Ref<const RowMatrixX3d>& X, int axis,
                                        CoefficientMethod method = CoefficientMethod::Traversal,
                                        int threads = 0) const {
     VPFFD_CHECK(X.rows() == n_vertices(), "volume_coefficients: X has ", X.rows(), " rows, expected ",
                 n_vertices());
     VPFFD_CHECK(axis >= 0 && axis < 3, "volume_coefficients: axis ", axis, " not in 0..2");
-    require_closed(edges_, "volume_coefficients");
     return coefficients(X.data(), axis, method, threads);
   }
 
@@ -214,7 +215,8 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     for (Index c = 0; c < N; ++c)
       if (opt.fixed[c]) inv_weight[c] = 0.0;
   }
-  if (opt.preserve_volume) require_closed(edges_, "deform(preserve_volume=True)");
+  if (opt.preserve_volume && !opt.allow_open) require_closed(edges_, "deform(preserve_volume=True)");
+  const bool measure = is_closed() || opt.allow_open;
   const double target = std::isnan(opt.target_volume) ? rest_volume_ : opt.target_volume;
   VPFFD_CHECK(std::isfinite(target), "deform: target_volume is ", target, "; expected a finite number");
 
@@ -256,7 +258,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   double* X = res.vertices.data();
   eval_ffd(P, X, threads);
   res.offsets = RowMatrixX3d::Zero(N, 3);
-  if (is_closed()) res.volume_before = signed_volume(X, F_, origin_, threads);
+  if (measure) res.volume_before = signed_volume(X, F_, origin_, threads);
 
   // A constraint along an axis that is not corrected could only be met by luck.
   std::vector<bool> corrected(3, false);
@@ -296,7 +298,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     }
   }
   res.control_points = P + res.offsets;
-  if (is_closed()) res.volume = signed_volume(X, F_, origin_, threads);
+  if (measure) res.volume = signed_volume(X, F_, origin_, threads);
   for (size_t s = 0; s < nc; ++s)
     for (int a = 0; a < 3; ++a)
       res.constraint_error = std::max(res.constraint_error, std::abs(row_dot(rows[s], res.control_points.col(a)) -

@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# All tests: the C++ suite through ctest, then the Python suite through pytest.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+export PATH="$PWD/.venv/bin:$PATH"
+cmake -S . -B build/ctest -G Ninja -DVPFFD_BUILD_TESTS=ON -DVPFFD_BUILD_PYTHON=OFF -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build build/ctest -j 2
+(cd build/ctest && ctest --output-on-failure -j 2)
+python -m pytest tests/python -q "$@"
