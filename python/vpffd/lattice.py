@@ -140,6 +140,15 @@ class Lattice:
         X = _arrays.points(points, "Lattice.deform_points: points")
         return _core.ffd_points(self._spec, P, X, outside)
 
+    def basis_matrix(self, points, outside="error"):
+        """(n, N) scipy CSR matrix of the basis functions at rest-space points:
+        ``basis_matrix(X) @ control_points.reshape(-1, 3) == deform_points(X)``.
+        Row i is the constraint row of point i in the paper's Problem 2."""
+        import scipy.sparse as sp
+        X = _arrays.points(points, "Lattice.basis_matrix: points")
+        data, indices, indptr, shape = _core.point_basis_matrix(self._spec, X, outside)
+        return sp.csr_matrix((data, indices, indptr), shape=shape)
+
     def _control(self, control_points) -> np.ndarray:
         cp = self.control_points if control_points is None else control_points
         return _arrays.control_points(cp, self.n_control_points, self.shape)

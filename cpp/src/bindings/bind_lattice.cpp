@@ -72,6 +72,19 @@ void bind_lattice(py::module_& m) {
       },
       py::arg("knots"), py::arg("degree"), py::arg("u"));
   m.def(
+      "point_basis_matrix",
+      [](const Lattice& L, RefV X, const std::string& outside) {
+        const OutsidePolicy pol = parse_outside_policy(outside);
+        CsrMatrix A;
+        {
+          py::gil_scoped_release release;
+          validate_lattice(L);
+          A = vertex_basis_matrix(basis_tables(L), embed(L, X, pol, 0, "point"));
+        }
+        return csr_to_python(std::move(A));
+      },
+      py::arg("lattice"), py::arg("points"), py::arg("outside") = "error");
+  m.def(
       "ffd_points",
       [](const Lattice& L, RefV P, RefV X, const std::string& outside, int threads) {
         const OutsidePolicy pol = parse_outside_policy(outside);

@@ -3,10 +3,12 @@
 /// Univariate B-spline basis functions: Cox-de Boor values and first derivatives
 /// (the reference), and per-span power-form polynomials (the fast path).
 
+#include <Eigen/Core>
 #include <array>
 #include <vector>
 
 #include "vpffd/bspline/knots.h"
+#include "vpffd/core/types.h"
 
 namespace vpffd {
 
@@ -52,7 +54,7 @@ inline void basis_values_derivs(const std::vector<double>& t, int d, int s, doub
 }
 
 /// The d+1 basis functions of every knot span in power form, N_{s-d+r}(u) =
-/// sum_q coef[s][r][q] tau^q with tau = (u - t_s) / (t_{s+1} - t_s).
+/// sum_q coef[s][q][r] tau^q with tau = (u - t_s) / (t_{s+1} - t_s).
 ///
 /// Evaluating them is d multiply-adds per function and no division, which is
 /// what makes the per-frame passes over the vertices cheap: a vertex keeps only
@@ -64,7 +66,7 @@ struct SpanPolynomials {
   int n_spans = 0;               ///< n - degree, empty spans included (never used)
   std::vector<double> start;     ///< t_s per span
   std::vector<double> inv_width; ///< 1 / (t_{s+1} - t_s) per span, 0 for an empty span
-  std::vector<double> coef;      ///< n_spans x (d+1) x (d+1), row r = function, column q = power
+  std::vector<double> coef;      ///< n_spans x (d+1) x (d+1): [span][power q][function r]
 
   const double* span_coef(int span) const {
     return coef.data() + static_cast<size_t>(span - first_span) * (degree + 1) * (degree + 1);
@@ -121,42 +123,42 @@ inline SpanPolynomials span_polynomials(const std::vector<double>& t, int n, int
       P = Q;
     }
     double* c = sp.coef.data() + static_cast<size_t>(si) * K * K;
+    // Power-major layout: Horner then runs over all K functions at once (one vector op per power).
     for (int r = 0; r < K; ++r)
-      for (int q = 0; q < K; ++q) c[r * K + q] = P[r][q];
+      for (int q = 0; q < K; ++q) c[q * K + r] = P[r][q];
   }
   return sp;
 }
 
-/// Evaluates the K = d+1 functions of one span at local parameter tau (Horner).
+/// Evaluates the K = d+1 functions of one span at local parameter tau (Horner,
+/// all functions side by side).
 template <int K>
-inline void eval_span(const double* c, double tau, double* N) {
-  for (int r = 0; r < K; ++r) {
-    double v = c[r * K + K - 1];
-    for (int q = K - 2; q >= 0; --q) v = v * tau + c[r * K + q];
-    N[r] = v;
-  }
+VPFFD_ALWAYS_INLINE void eval_span(const double* c, double tau, double* N) {
+  using Vec = Eigen::Array<double, K, 1>;
+  Vec n = Eigen::Map<const Vec>(c + (K - 1) * K);
+  for (int q = K - 2; q >= 0; --q) n = n * tau + Eigen::Map<const Vec>(c + q * K);
+  Eigen::Map<Vec> out(N);
+  out = n;
 }
 
 /// Runtime-order version of eval_span.
 inline void eval_span(const double* c, int K, double tau, double* N) {
-  for (int r = 0; r < K; ++r) {
-    double v = c[r * K + K - 1];
-    for (int q = K - 2; q >= 0; --q) v = v * tau + c[r * K + q];
-    N[r] = v;
-  }
+  for (int r = 0; r < K; ++r) N[r] = c[(K - 1) * K + r];
+  for (int q = K - 2; q >= 0; --q)
+    for (int r = 0; r < K; ++r) N[r] = N[r] * tau + c[q * K + r];
 }
 
 /// Values and derivatives d/dtau (multiply by inv_width for d/du).
 inline void eval_span_derivs(const double* c, int K, double tau, double* N, double* dN) {
   for (int r = 0; r < K; ++r) {
-    double v = c[r * K + K - 1], dv = 0.0;
-    for (int q = K - 2; q >= 0; --q) {
-      dv = dv * tau + v;
-      v = v * tau + c[r * K + q];
-    }
-    N[r] = v;
-    dN[r] = dv;
+    N[r] = c[(K - 1) * K + r];
+    dN[r] = 0.0;
   }
+  for (int q = K - 2; q >= 0; --q)
+    for (int r = 0; r < K; ++r) {
+      dN[r] = dN[r] * tau + N[r];
+      N[r] = N[r] * tau + c[q * K + r];
+    }
 }
 
 }  // namespace vpffd

@@ -8,6 +8,15 @@
 #include <Eigen/Core>
 #include <cstdint>
 
+/// Forces inlining of the small functions inside the per-point loops.
+#if defined(__GNUC__) || defined(__clang__)
+#define VPFFD_ALWAYS_INLINE inline __attribute__((always_inline))
+#elif defined(_MSC_VER)
+#define VPFFD_ALWAYS_INLINE __forceinline
+#else
+#define VPFFD_ALWAYS_INLINE inline
+#endif
+
 namespace vpffd {
 
 using Index = std::int64_t;

@@ -154,6 +154,13 @@ class Deformer {
   }
 
   AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads) const {
+    if (!is_closed()) {
+      // The paper's matrix holds the projection form, which on an open surface
+      // differs from the cone volume that is measured and kept.
+      VPFFD_CHECK(method == CoefficientMethod::Traversal,
+                  "deform: method='csr' needs a closed mesh; use method='traversal' with allow_open");
+      return coefficients_traversal(tables_, embedding_, adjacency_, X, F_, axis, origin_, threads, true);
+    }
     if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, F_, axis, origin_, threads);
     return coefficients_traversal(tables_, embedding_, adjacency_, X, F_, axis, origin_, threads);
   }
@@ -258,7 +265,9 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   double* X = res.vertices.data();
   eval_ffd(P, X, threads);
   res.offsets = RowMatrixX3d::Zero(N, 3);
-  if (measure) res.volume_before = signed_volume(X, F_, origin_, threads);
+  // With a volume correction the first axis step measures the plain FFD's volume anyway.
+  if (measure && !(opt.preserve_volume && !opt.axes.empty()))
+    res.volume_before = signed_volume(X, F_, origin_, threads);
 
   // A constraint along an axis that is not corrected could only be met by luck.
   std::vector<bool> corrected(3, false);
@@ -284,6 +293,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       if (opt.preserve_volume) {
         co = coefficients(X, a, opt.method, threads);
         info.volume_before = co.volume;
+        if (step == 0) res.volume_before = co.volume;
         // Equal shares of what is still missing: after the last axis the volume is the target.
         info.share = (target - co.volume) / (k - step);
       }

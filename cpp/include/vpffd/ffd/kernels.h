@@ -9,33 +9,55 @@
 
 namespace vpffd::detail {
 
+// Loop structure shared by the kernels: for each (i, j) the K_w control points
+// along k are contiguous, so the kernels accumulate K-wide vectors over all
+// (i, j) rows and reduce against the k basis once per point. With a
+// compile-time K the vectors are Eigen fixed-size arrays, which Eigen maps to
+// SIMD packets explicitly (GCC does not vectorise this loop nest on its own);
+// K = 0 (mixed degrees) takes the plain scalar loops.
+
+template <int K>
+using KVec = Eigen::Array<double, K, 1>;
+
+template <int K>
+inline Eigen::Map<const KVec<K>> kload(const double* p) {
+  return Eigen::Map<const KVec<K>>(p);
+}
+
 /// out[v] = sum_ijk B_ijk(u_v) P_ijk for v in [b, e); out is #points x 3 row-major.
 template <int K>
 void ffd_kernel(const BasisTables& T, const Embedding& E, const double* Px, const double* Py, const double* Pz,
                 double* out, Index b, Index e) {
-  const Orders<K> o(T);
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
-  double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
+  alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
   for (Index v = b; v < e; ++v) {
     const Index base = point_basis<K>(T, E, v, bu, bv, bw);
     double x = 0, y = 0, z = 0;
-    for (int i = 0; i < o.u; ++i) {
-      double xi = 0, yi = 0, zi = 0;
-      for (int j = 0; j < o.v; ++j) {
-        const Index row = base + i * si + j * sj;
-        double xj = 0, yj = 0, zj = 0;
-        for (int k = 0; k < o.w; ++k) {
-          xj += bw[k] * Px[row + k];
-          yj += bw[k] * Py[row + k];
-          zj += bw[k] * Pz[row + k];
+    if constexpr (K > 0) {
+      KVec<K> ax = KVec<K>::Zero(), ay = KVec<K>::Zero(), az = KVec<K>::Zero();
+      for (int i = 0; i < K; ++i)
+        for (int j = 0; j < K; ++j) {
+          const double c = bu[i] * bv[j];
+          const Index row = base + i * si + j * sj;
+          ax += c * kload<K>(Px + row);
+          ay += c * kload<K>(Py + row);
+          az += c * kload<K>(Pz + row);
         }
-        xi += bv[j] * xj;
-        yi += bv[j] * yj;
-        zi += bv[j] * zj;
-      }
-      x += bu[i] * xi;
-      y += bu[i] * yi;
-      z += bu[i] * zi;
+      const KVec<K> w = kload<K>(bw);
+      x = (w * ax).sum();
+      y = (w * ay).sum();
+      z = (w * az).sum();
+    } else {
+      for (int i = 0; i < T.order[0]; ++i)
+        for (int j = 0; j < T.order[1]; ++j) {
+          const double c = bu[i] * bv[j];
+          const Index row = base + i * si + j * sj;
+          for (int k = 0; k < T.order[2]; ++k) {
+            x += c * bw[k] * Px[row + k];
+            y += c * bw[k] * Py[row + k];
+            z += c * bw[k] * Pz[row + k];
+          }
+        }
     }
     out[3 * v] = x;
     out[3 * v + 1] = y;
@@ -46,20 +68,26 @@ void ffd_kernel(const BasisTables& T, const Embedding& E, const double* Px, cons
 /// acc[c] += weight(v) * B_c(u_v) for v in [b, e): the transpose product B^T w.
 template <int K, class Weight>
 void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, double* acc, Index b, Index e) {
-  const Orders<K> o(T);
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
-  double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
+  alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
   for (Index v = b; v < e; ++v) {
     const double wv = weight(v);
     if (wv == 0.0) continue;
     const Index base = point_basis<K>(T, E, v, bu, bv, bw);
-    for (int i = 0; i < o.u; ++i) {
-      const double wi = wv * bu[i];
-      for (int j = 0; j < o.v; ++j) {
-        const double wij = wi * bv[j];
-        double* a = acc + base + i * si + j * sj;
-        for (int k = 0; k < o.w; ++k) a[k] += wij * bw[k];
-      }
+    if constexpr (K > 0) {
+      const KVec<K> wk = wv * kload<K>(bw);
+      for (int i = 0; i < K; ++i)
+        for (int j = 0; j < K; ++j) {
+          Eigen::Map<KVec<K>> a(acc + base + i * si + j * sj);
+          a += (bu[i] * bv[j]) * wk;
+        }
+    } else {
+      for (int i = 0; i < T.order[0]; ++i)
+        for (int j = 0; j < T.order[1]; ++j) {
+          const double c = wv * bu[i] * bv[j];
+          double* a = acc + base + i * si + j * sj;
+          for (int k = 0; k < T.order[2]; ++k) a[k] += c * bw[k];
+        }
     }
   }
 }
@@ -70,21 +98,23 @@ void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, d
 template <int K>
 void gather_kernel(const BasisTables& T, const Embedding& E, const double* D, double* out, int axis, Index b,
                    Index e) {
-  const Orders<K> o(T);
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
-  double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
+  alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
   for (Index v = b; v < e; ++v) {
     const Index base = point_basis<K>(T, E, v, bu, bv, bw);
     double s = 0;
-    for (int i = 0; i < o.u; ++i) {
-      double si_ = 0;
-      for (int j = 0; j < o.v; ++j) {
-        const double* d = D + base + i * si + j * sj;
-        double sk = 0;
-        for (int k = 0; k < o.w; ++k) sk += bw[k] * d[k];
-        si_ += bv[j] * sk;
-      }
-      s += bu[i] * si_;
+    if constexpr (K > 0) {
+      KVec<K> a = KVec<K>::Zero();
+      for (int i = 0; i < K; ++i)
+        for (int j = 0; j < K; ++j) a += (bu[i] * bv[j]) * kload<K>(D + base + i * si + j * sj);
+      s = (kload<K>(bw) * a).sum();
+    } else {
+      for (int i = 0; i < T.order[0]; ++i)
+        for (int j = 0; j < T.order[1]; ++j) {
+          const double c = bu[i] * bv[j];
+          const double* d = D + base + i * si + j * sj;
+          for (int k = 0; k < T.order[2]; ++k) s += c * bw[k] * d[k];
+        }
     }
     out[3 * v + axis] += s;
   }

@@ -29,13 +29,31 @@ struct AxisCoefficients {
 /// of vertices, summed in chunk order: no atomics, same result for any thread count.
 /// @param X       #V x 3 current vertices (row-major)
 /// @param origin  reference point for the volume (see signed_volume)
+///
+/// With `cone` the weights are the exact gradient of the cone volume from
+/// `origin` (signed_volume), w_v = sum over faces (l, m, n) of
+/// ((x_m - o) x (x_n - o))_axis / 6 with v = l: one value per face corner.
+/// For a closed mesh both forms give the same volume and coefficients; for an
+/// open one only the cone form matches signed_volume, so allow_open uses it.
 inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embedding& E, const VertexFaces& vf,
                                                const double* X, const Eigen::Ref<const RowMatrixX3i>& F, int axis,
-                                               const Vector3d& origin, int threads = 0) {
+                                               const Vector3d& origin, int threads = 0, bool cone = false) {
   const Index nv = E.size();
   const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
-  std::vector<double> nf(F.rows());
-  face_normal_component(X, F, axis, nf.data(), threads);
+  std::vector<double> nf(F.rows() * (cone ? 3 : 1));
+  if (cone) {
+    const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+    parallel_range(F.rows(), threads, [&](Index b, Index e) {
+      for (Index f = b; f < e; ++f)
+        for (int c = 0; c < 3; ++c) {
+          const double* pm = X + 3 * Index(F(f, (c + 1) % 3));
+          const double* pn = X + 3 * Index(F(f, (c + 2) % 3));
+          nf[3 * f + c] = (pm[a1] - origin[a1]) * (pn[a2] - origin[a2]) - (pm[a2] - origin[a2]) * (pn[a1] - origin[a1]);
+        }
+    });
+  } else {
+    face_normal_component(X, F, axis, nf.data(), threads);
+  }
   // Chunk buffers are N doubles each: cap their total at 64 MB for huge lattices.
   const int max_chunks = static_cast<int>(std::clamp<Index>((Index(64) << 20) / (8 * N), 1, 64));
   const int chunks = chunk_count(nv, 8192, max_chunks);
@@ -48,7 +66,14 @@ inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embed
     double vsum = 0;
     auto weight = [&](Index v) {
       double w = 0;
-      for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) w += nf[fa[p]];
+      if (cone) {
+        for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) {
+          const Index f = fa[p];
+          w += nf[3 * f + (F(f, 0) == v ? 0 : F(f, 1) == v ? 1 : 2)];
+        }
+      } else {
+        for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) w += nf[fa[p]];
+      }
       w *= (1.0 / 6.0);
       vsum += (X[3 * v + axis] - o) * w;
       return w;

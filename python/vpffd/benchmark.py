@@ -1,0 +1,137 @@
+"""CPU benchmark of a volume-preserving frame (the README's table).
+
+For each mesh: nnz of the paper's N x F matrix (its Table 1), and the median
+times of the plain FFD, one axis correction and the full xyz frame, for the
+``traversal`` and ``csr`` coefficient methods on 1 thread and on all threads.
+"""
+from __future__ import annotations
+
+import gzip
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import _core, edits, shapes
+from .deformer import Deformer
+from .lattice import Lattice
+from .mesh import Mesh
+
+SHARED_MESHES = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "meshes"
+
+
+def read_binary_ply(path) -> Mesh:
+    """Reads the binary little-endian triangle PLY files of the shared mesh set
+    (float32 x, y, z; ``list uchar int`` faces), gzipped or not."""
+    path = Path(path)
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rb") as f:
+        data = f.read()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:end].decode("ascii").splitlines()
+    if "format binary_little_endian 1.0" not in header:
+        raise ValueError(f"{path}: only binary little-endian PLY is supported here")
+    nv = nf = 0
+    vprops = []
+    for line in header:
+        w = line.split()
+        if w[:2] == ["element", "vertex"]:
+            nv, cur = int(w[2]), "v"
+        elif w[:2] == ["element", "face"]:
+            nf, cur = int(w[2]), "f"
+        elif w and w[0] == "property" and cur == "v":
+            vprops.append(w[1])
+    if vprops != ["float"] * 3:
+        raise ValueError(f"{path}: expected float x, y, z vertices, got {vprops}")
+    V = np.frombuffer(data, dtype="<f4", count=3 * nv, offset=end).reshape(nv, 3)
+    rec = np.dtype([("n", "u1"), ("i", "<i4", (3,))])
+    Fr = np.frombuffer(data, dtype=rec, count=nf, offset=end + 12 * nv)
+    if not (Fr["n"] == 3).all():
+        raise ValueError(f"{path}: not all faces are triangles")
+    return Mesh(V.astype(np.float64), Fr["i"])
+
+
+def _median_ms(fn, repeats: int) -> float:
+    fn()  # warm-up
+    t = []
+    for _ in range(repeats):
+        s = time.perf_counter()
+        fn()
+        t.append(time.perf_counter() - s)
+    return 1e3 * float(np.median(t))
+
+
+def bench_mesh(name: str, mesh: Mesh, shape=(10, 10, 10), degree=3, repeats=7, with_csr=True) -> list:
+    """Rows of the table for one mesh (dicts)."""
+    lat = Lattice.around(mesh, shape=shape, degree=degree, padding=0.05)
+    P = edits.twist(edits.squash(lat.control_points, 0.6), 90)
+    rows = []
+    threads = [("serial", 1), ("openmp", None)] if _core.has_openmp() else [("serial", 1)]
+    nnz = None
+    for backend, th in threads:
+        d = Deformer(mesh, lat, backend=backend, threads=th)
+        methods = ["traversal"] + (["csr"] if with_csr else [])
+        for method in methods:
+            if method == "csr" and nnz is None:
+                t0 = time.perf_counter()
+                nnz = d.face_matrix_nnz()
+                build_s = time.perf_counter() - t0
+            elif method == "csr":
+                d.face_matrix_nnz()
+            r = d.deform(P, method=method)
+            err = abs(r.volume - r.target_volume) / abs(r.target_volume)
+            rows.append(dict(
+                mesh=name, vertices=mesh.n_vertices, faces=mesh.n_faces, lattice="x".join(map(str, shape)),
+                degree=degree, backend=backend, threads=th or _core.max_threads(), method=method,
+                ffd_ms=_median_ms(lambda: d.ffd(P), repeats),
+                one_axis_ms=_median_ms(lambda: d.deform(P, axes="x", method=method), repeats),
+                xyz_ms=_median_ms(lambda: d.deform(P, axes="xyz", method=method), repeats),
+                volume_error=err, bytes_per_vertex=d.bytes_per_vertex,
+                csr_nnz=nnz if method == "csr" else None,
+                csr_build_s=build_s if method == "csr" and backend == threads[0][0] else None))
+    return rows
+
+
+def default_meshes(include_shared: bool = True) -> list:
+    out = [("icosphere (2,562 v)", lambda: shapes.icosphere(4)), ("icosphere (40,962 v)", lambda: shapes.icosphere(6))]
+    if include_shared and SHARED_MESHES.is_dir():
+        for f in ["bunny_watertight.ply", "armadillo.ply", "horse.ply", "dragon_vrip_welded.ply.gz"]:
+            p = SHARED_MESHES / f
+            if p.exists():
+                out.append((f.split(".")[0], lambda p=p: read_binary_ply(p)))
+    return out
+
+
+def format_table(rows: list) -> str:
+    head = ("| mesh | vertices | backend | threads | method | FFD ms | 1 axis ms | xyz frame ms | "
+            "volume error | bytes/vertex | paper matrix nnz |")
+    lines = [head, "|" + "---|" * 11]
+    for r in rows:
+        nnz = f"{r['csr_nnz']:,}" if r["csr_nnz"] else ""
+        lines.append(f"| {r['mesh']} | {r['vertices']:,} | {r['backend']} | {r['threads']} | {r['method']} | "
+                     f"{r['ffd_ms']:.2f} | {r['one_axis_ms']:.2f} | {r['xyz_ms']:.2f} | {r['volume_error']:.1e} | "
+                     f"{r['bytes_per_vertex']:.0f} | {nnz} |")
+    return "\n".join(lines)
+
+
+def run_benchmark(include_shared: bool = True, repeats: int = 7, with_csr: bool = True, out: str | None = None,
+                  shape=(10, 10, 10), degree: int = 3, progress=None) -> list:
+    """Runs the benchmark, prints the markdown table, optionally writes JSON to ``out``."""
+    rows = []
+    meshes = default_meshes(include_shared)
+    for i, (name, load) in enumerate(meshes):
+        if progress:
+            progress(i, len(meshes), name)
+        rows += bench_mesh(name, load(), shape=shape, degree=degree, repeats=repeats, with_csr=with_csr)
+    print(f"vpffd {_core.__version__} CPU benchmark: {platform.processor() or platform.machine()}, "
+          f"{os.cpu_count()} cores, lattice {'x'.join(map(str, shape))} degree {degree}, "
+          f"median of {repeats} runs (ms); twist 90 deg + squash 0.6")
+    print(format_table(rows))
+    if out:
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        Path(out).write_text(json.dumps(dict(machine=platform.uname()._asdict(), cores=os.cpu_count(),
+                                             rows=rows), indent=1))
+    return rows

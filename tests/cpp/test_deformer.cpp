@@ -1,0 +1,230 @@
+#include <cmath>
+
+#include "helpers.h"
+
+using namespace vpffd;
+using namespace vpffd::test;
+
+TEST(Volume, UnitCubeAndIcosphere) {
+  const TriMesh cube = box_mesh(4, 1.0);
+  EXPECT_NEAR(signed_volume(cube.V, cube.F), 1.0, 1e-14);
+  EXPECT_EQ(edge_report(cube.F).boundary_edges, 0);
+  // Far from the origin the volume is the same; the centred sum keeps precision.
+  RowMatrixX3d moved = cube.V.rowwise() + Eigen::RowVector3d(1e4, -2e4, 3e4);
+  EXPECT_NEAR(signed_volume(moved, cube.F, Vector3d(1e4, -2e4, 3e4)), 1.0, 1e-12);
+  // Icosphere: the inscribed polyhedron tends to 4/3 pi; compare with the exact
+  // sum of its tetrahedra, and check the rate.
+  const TriMesh s5 = icosphere(5);
+  const double v5 = signed_volume(s5.V, s5.F);
+  EXPECT_LT(v5, 4.0 / 3.0 * M_PI);
+  EXPECT_NEAR(v5, 4.0 / 3.0 * M_PI, 2e-3);
+  const TriMesh s4 = icosphere(4);
+  EXPECT_NEAR(signed_volume(s4.V, s4.F), 4.17973892, 1e-8);  // the shared sphere_ico4.ply value
+}
+
+TEST(Deformer, IdentityLatticeMapsVerticesOntoThemselves) {
+  const TriMesh m = icosphere(3);
+  for (int d = 1; d <= kMaxDegree; ++d) {
+    const Lattice L = lattice_around(m.V, {d + 2, d + 3, d + 4}, d);
+    Deformer D(m.V, m.F, L);
+    const RowMatrixX3d X = D.ffd(rest_control_points(L));
+    EXPECT_LT((X - m.V).cwiseAbs().maxCoeff(), 1e-12) << "degree " << d;
+    // Jacobian of the identity is the identity.
+    const RowMatrixXd J = D.jacobians(rest_control_points(L));
+    for (Index v = 0; v < J.rows(); v += 17)
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(J(v, 3 * r + c), r == c ? 1.0 : 0.0, 1e-11);
+  }
+}
+
+TEST(Deformer, BasisMatrixReproducesFfd) {
+  const TriMesh m = icosphere(2);
+  const Lattice L = lattice_around(m.V, {5, 6, 7}, 3);
+  Deformer D(m.V, m.F, L);
+  const RowMatrixX3d P = twist(squashed(L, 0.5), 1.0, 2, Vector3d::Zero());
+  const CsrMatrix B = D.basis_matrix();
+  const RowMatrixX3d X = D.ffd(P);
+  for (Index v = 0; v < B.rows; ++v) {
+    Vector3d x = Vector3d::Zero();
+    for (auto p = B.indptr[v]; p < B.indptr[v + 1]; ++p) x += B.values[p] * P.row(B.indices[p]).transpose();
+    EXPECT_LT((x - X.row(v).transpose()).norm(), 1e-13);
+  }
+}
+
+TEST(Deformer, JacobianMatchesFiniteDifferences) {
+  const TriMesh m = icosphere(2);
+  const Lattice L = lattice_around(m.V, {5, 5, 5}, 3);
+  const RowMatrixX3d P = bend(squashed(L, 0.7), 0.8, 2, 0, Vector3d::Zero());
+  Deformer D(m.V, m.F, L);
+  const RowMatrixXd J = D.jacobians(P);
+  const double h = 1e-6;
+  for (Index v : {0, 11, 40, 101}) {
+    for (int c = 0; c < 3; ++c) {
+      RowMatrixX3d xp = m.V.row(v), xm = m.V.row(v);
+      xp(0, c) += h;
+      xm(0, c) -= h;
+      const RowMatrixX3d fp = ffd_points(L, P, xp), fm = ffd_points(L, P, xm);
+      for (int r = 0; r < 3; ++r) EXPECT_NEAR(J(v, 3 * r + c), (fp(0, r) - fm(0, r)) / (2 * h), 1e-6);
+    }
+  }
+}
+
+TEST(Deformer, CoefficientMethodsAgree) {
+  const TriMesh m = icosphere(3);
+  const Lattice L = lattice_around(m.V, {6, 5, 7}, 3);
+  Deformer D(m.V, m.F, L);
+  const RowMatrixX3d X = D.ffd(twist(squashed(L, 0.4), 2.0, 2, Vector3d::Zero()));
+  for (int a = 0; a < 3; ++a) {
+    const AxisCoefficients t = D.volume_coefficients(X, a, CoefficientMethod::Traversal);
+    const AxisCoefficients c = D.volume_coefficients(X, a, CoefficientMethod::Csr);
+    EXPECT_LT((t.alpha - c.alpha).norm(), 1e-12 * t.alpha.norm());
+    EXPECT_NEAR(t.volume, c.volume, 1e-12 * std::abs(t.volume));
+    EXPECT_NEAR(t.volume, signed_volume(X, m.F), 1e-12 * std::abs(t.volume));
+    // Linearity in each axis: moving by delta changes the volume by alpha . delta exactly.
+    VectorXd delta = VectorXd::LinSpaced(t.alpha.size(), -0.05, 0.07);
+    RowMatrixX3d Y = X;
+    const CsrMatrix B = D.basis_matrix();
+    for (Index v = 0; v < B.rows; ++v)
+      for (auto p = B.indptr[v]; p < B.indptr[v + 1]; ++p) Y(v, a) += B.values[p] * delta[B.indices[p]];
+    EXPECT_NEAR(signed_volume(Y, m.F), t.volume + t.alpha.dot(delta), 1e-12);
+  }
+}
+
+TEST(Deformer, VolumeRestoredForEveryAxisSubset) {
+  const TriMesh m = icosphere(3);
+  const Lattice L = lattice_around(m.V, {6, 6, 6}, 3);
+  Deformer D(m.V, m.F, L);
+  const double V0 = D.rest_volume();
+  const RowMatrixX3d squash = squashed(L, 0.2);
+  const RowMatrixX3d twisted = twist(rest_control_points(L), 2 * M_PI, 2, 0.5 * (L.box_min + L.box_max));
+  for (const RowMatrixX3d* P : {&squash, &twisted})
+    for (const char* axes : {"x", "y", "z", "xy", "yx", "xz", "yz", "xyz", "zyx"})
+      for (auto method : {CoefficientMethod::Traversal, CoefficientMethod::Csr}) {
+        CorrectionOptions o;
+        o.axes = parse_axes(axes);
+        o.method = method;
+        const DeformResult r = D.deform(*P, o);
+        EXPECT_LE(rel(r.volume, V0), 1e-12) << axes;
+        EXPECT_GT(rel(r.volume_before, V0), 1e-3) << axes;
+        // Only the chosen axes move.
+        for (int a = 0; a < 3; ++a)
+          if (std::string(axes).find(char('x' + a)) == std::string::npos) EXPECT_EQ(r.offsets.col(a).norm(), 0.0);
+      }
+}
+
+TEST(Deformer, OffsetsAreOptimal) {
+  // Each step's offsets are a multiple of the weighted coefficients of that step.
+  const TriMesh m = icosphere(3);
+  const Lattice L = lattice_around(m.V, {5, 6, 5}, 2);
+  Deformer D(m.V, m.F, L);
+  const RowMatrixX3d P = squashed(L, 0.5);
+  VectorXd w = VectorXd::LinSpaced(L.n_control_points(), 0.5, 3.0);
+  CorrectionOptions o;
+  o.weights = w;
+  const DeformResult r = D.deform(P, o);
+  RowMatrixX3d X = D.ffd(P);
+  const CsrMatrix B = D.basis_matrix();
+  for (int a = 0; a < 3; ++a) {
+    const VectorXd alpha = D.volume_coefficients(X, a).alpha;
+    const VectorXd expect = alpha.cwiseQuotient(w);
+    const VectorXd got = r.offsets.col(a);
+    const double k = got.dot(expect) / expect.squaredNorm();
+    EXPECT_LT((got - k * expect).norm(), 1e-12 * got.norm());
+    for (Index v = 0; v < B.rows; ++v)
+      for (auto p = B.indptr[v]; p < B.indptr[v + 1]; ++p) X(v, a) += B.values[p] * got[B.indices[p]];
+  }
+  EXPECT_LT((X - r.vertices).cwiseAbs().maxCoeff(), 1e-13);
+}
+
+TEST(Deformer, ConstraintsAndFixedPoints) {
+  const TriMesh m = icosphere(3);
+  const Lattice L = lattice_around(m.V, {7, 7, 7}, 3);
+  Deformer D(m.V, m.F, L);
+  const double V0 = D.rest_volume();
+  CorrectionOptions o;
+  o.constraints.push_back({0, Vector3d::Zero(), m.V.row(0).transpose() * 1.3});
+  o.constraints.push_back({-1, Vector3d(0.1, 0.2, -0.3), Vector3d(0.15, 0.2, -0.45)});
+  o.constraints.push_back({100, Vector3d::Zero(), m.V.row(100).transpose() + Vector3d(0, 0.1, 0)});
+  o.fixed.assign(L.n_control_points(), 0);
+  for (int j = 0; j < 7; ++j)
+    for (int k = 0; k < 7; ++k) o.fixed[L.index(0, j, k)] = 1;
+  const DeformResult r = D.deform(squashed(L, 0.6), o);
+  EXPECT_LE(rel(r.volume, V0), 1e-12);
+  EXPECT_LE(r.constraint_error, 1e-12);
+  EXPECT_LT((r.vertices.row(0) - 1.3 * m.V.row(0)).norm(), 1e-12);
+  for (int j = 0; j < 7; ++j)
+    for (int k = 0; k < 7; ++k) EXPECT_EQ(r.offsets.row(L.index(0, j, k)).norm(), 0.0);
+  // Constraints without volume preservation (direct manipulation only).
+  o.preserve_volume = false;
+  const DeformResult q = D.deform(rest_control_points(L), o);
+  EXPECT_LE(q.constraint_error, 1e-12);
+}
+
+TEST(Deformer, UnsolvableCasesRaiseSolverError) {
+  const TriMesh m = icosphere(2);
+  const Lattice L = lattice_around(m.V, {4, 4, 4}, 3);
+  Deformer D(m.V, m.F, L);
+  CorrectionOptions o;
+  o.fixed.assign(L.n_control_points(), 1);
+  EXPECT_THROW(D.deform(squashed(L, 0.5), o), SolverError);  // nothing may move
+  CorrectionOptions c;
+  c.constraints.push_back({3, Vector3d::Zero(), Vector3d(0, 0, 0)});
+  c.constraints.push_back({3, Vector3d::Zero(), Vector3d(0, 0, 0.1)});
+  EXPECT_THROW(D.deform(squashed(L, 0.5), c), SolverError);  // same point twice
+  CorrectionOptions many;
+  for (int i = 0; i < 70; ++i) many.constraints.push_back({i, Vector3d::Zero(), m.V.row(i).transpose()});
+  EXPECT_THROW(D.deform(squashed(L, 0.5), many), SolverError);  // 71 conditions > 64 points
+}
+
+TEST(Deformer, BadInput) {
+  const TriMesh m = icosphere(2);
+  const Lattice L = lattice_around(m.V, {4, 4, 4}, 3);
+  // Vertices outside the lattice.
+  const Lattice small = make_lattice(Vector3d(-0.5, -0.5, -0.5), Vector3d(0.5, 0.5, 0.5), {4, 4, 4}, {3, 3, 3});
+  EXPECT_THROW(Deformer(m.V, m.F, small), InvalidInputError);
+  EXPECT_NO_THROW(Deformer(m.V, m.F, small, OutsidePolicy::Extrapolate));
+  // Extrapolation keeps the identity.
+  Deformer E(m.V, m.F, small, OutsidePolicy::Extrapolate);
+  EXPECT_LT((E.ffd(rest_control_points(small)) - m.V).cwiseAbs().maxCoeff(), 1e-12);
+  // Faces out of range, NaN vertices, empty mesh.
+  RowMatrixX3i F = m.F;
+  F(3, 1) = static_cast<int>(m.V.rows());
+  EXPECT_THROW(Deformer(m.V, F, L), InvalidInputError);
+  RowMatrixX3d V = m.V;
+  V(5, 2) = NAN;
+  EXPECT_THROW(Deformer(V, m.F, L), InvalidInputError);
+  EXPECT_THROW(Deformer(RowMatrixX3d(0, 3), RowMatrixX3i(0, 3), L), InvalidInputError);
+  // Open mesh: volume refused, with the boundary edge count.
+  Deformer O(m.V, m.F.topRows(m.F.rows() - 1), L);
+  try {
+    O.deform(rest_control_points(L), {});
+    FAIL();
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("3 boundary edges"), std::string::npos) << e.what();
+  }
+  // Bad options.
+  Deformer D(m.V, m.F, L);
+  CorrectionOptions w;
+  w.weights = VectorXd::Ones(L.n_control_points());
+  w.weights[2] = 0.0;
+  EXPECT_THROW(D.deform(rest_control_points(L), w), InvalidInputError);
+  EXPECT_THROW(D.deform(RowMatrixX3d::Zero(5, 3), {}), InvalidInputError);
+  EXPECT_THROW(parse_axes("xw"), InvalidInputError);
+  EXPECT_THROW(parse_axes("xx"), InvalidInputError);
+  // Degenerate lattice.
+  EXPECT_THROW(make_lattice(Vector3d(0, 0, 0), Vector3d(1, 0, 1), {4, 4, 4}, {3, 3, 3}), InvalidInputError);
+  EXPECT_THROW(make_lattice(Vector3d(0, 0, 0), Vector3d(1, 1, 1), {3, 4, 4}, {3, 3, 3}), InvalidInputError);
+}
+
+TEST(Deformer, ThreadCountDoesNotChangeResults) {
+  const TriMesh m = icosphere(5);  // big enough for several chunks
+  const Lattice L = lattice_around(m.V, {8, 8, 8}, 3);
+  Deformer D(m.V, m.F, L);
+  const RowMatrixX3d P = twist(squashed(L, 0.5), 1.5, 2, Vector3d::Zero());
+  CorrectionOptions o1, o2;
+  o1.threads = 1;
+  o2.threads = 2;
+  const DeformResult a = D.deform(P, o1), b = D.deform(P, o2);
+  EXPECT_EQ((a.vertices - b.vertices).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(a.volume, b.volume);
+}
