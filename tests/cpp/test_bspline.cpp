@@ -11,7 +11,7 @@ std::vector<double> random_knots(int n, int d, std::mt19937& rng) {
   std::uniform_real_distribution<double> U(0.0, 1.0);
   std::vector<double> inner(n - d - 1);
   for (double& x : inner) x = U(rng);
-  if (inner.size() >= 2) inner[1] = inner[0];
+  if (d >= 2 && inner.size() >= 2) inner[1] = inner[0];  // a double knot where continuity allows it
   std::sort(inner.begin(), inner.end());
   std::vector<double> t(d + 1, 0.0);
   t.insert(t.end(), inner.begin(), inner.end());

@@ -17,9 +17,9 @@ TEST(Volume, UnitCubeAndIcosphere) {
   const TriMesh s5 = icosphere(5);
   const double v5 = signed_volume(s5.V, s5.F);
   EXPECT_LT(v5, 4.0 / 3.0 * M_PI);
-  EXPECT_NEAR(v5, 4.0 / 3.0 * M_PI, 2e-3);
+  EXPECT_NEAR(v5, 4.0 / 3.0 * M_PI, 3e-3);
   const TriMesh s4 = icosphere(4);
-  EXPECT_NEAR(signed_volume(s4.V, s4.F), 4.17973892, 1e-8);  // the shared sphere_ico4.ply value
+  EXPECT_NEAR(signed_volume(s4.V, s4.F), 4.17973892, 1e-7);  // sphere_ico4.ply (float32 file)
 }
 
 TEST(Deformer, IdentityLatticeMapsVerticesOntoThemselves) {
