@@ -7,4 +7,9 @@ export PATH="$PWD/.venv/bin:$PATH"
 cmake -S . -B build/ctest -G Ninja -DVPFFD_BUILD_TESTS=ON -DVPFFD_BUILD_PYTHON=OFF -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build/ctest -j 2
 (cd build/ctest && ctest --output-on-failure -j 2)
+# The installed CMake package works from another project.
+cmake --install build/ctest --prefix build/install >/dev/null
+cmake -S examples/cpp -B build/example -G Ninja -DCMAKE_PREFIX_PATH="$PWD/build/install" >/dev/null
+cmake --build build/example >/dev/null
+build/example/squash_sphere
 python -m pytest tests/python -q "$@"

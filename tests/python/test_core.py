@@ -273,3 +273,20 @@ def test_extrapolate_policy(sphere):
     np.testing.assert_allclose(d.ffd(), sphere.vertices, atol=1e-12)
     with pytest.raises(InvalidInputError, match="outside"):
         vpffd.Deformer(sphere, small, outside="clamp")
+
+
+def test_rounds_spread_the_correction_evenly(sphere, lat):
+    d = vpffd.Deformer(sphere, lat)
+    P = vpffd.squash(lat.control_points, 0.3)
+    widths = {}
+    for rounds in (1, 4):
+        r = d.deform(P, axes="xy", rounds=rounds, constraints=[(0, d.ffd(P)[0])])
+        assert abs(r.volume - d.rest_volume) <= 1e-12 * d.rest_volume
+        assert r.constraint_error <= 1e-12
+        assert len(r.steps) == 2 * rounds
+        widths[rounds] = np.ptp(r.vertices, axis=0)
+    # The paper's x-then-y order widens x more than y; rounds even it out.
+    assert widths[1][0] / widths[1][1] > 1.02
+    assert abs(widths[4][0] / widths[4][1] - 1) < 0.5 * abs(widths[1][0] / widths[1][1] - 1)
+    with pytest.raises(InvalidInputError, match="rounds"):
+        d.deform(P, rounds=0)

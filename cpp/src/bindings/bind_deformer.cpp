@@ -6,33 +6,6 @@
 
 namespace vpffd::bindings {
 
-namespace {
-
-py::dict result_to_python(DeformResult&& r) {
-  py::dict d;
-  d["vertices"] = py::cast(std::move(r.vertices));
-  d["control_points"] = py::cast(std::move(r.control_points));
-  d["offsets"] = py::cast(std::move(r.offsets));
-  d["volume_before"] = r.volume_before;
-  d["volume"] = r.volume;
-  d["target_volume"] = r.target_volume;
-  d["constraint_error"] = r.constraint_error;
-  py::list steps;
-  for (const AxisStep& s : r.steps) {
-    py::dict e;
-    e["axis"] = std::string(1, char('x' + s.axis));
-    e["volume_before"] = s.volume_before;
-    e["share"] = s.share;
-    e["sum_squares"] = s.sum_squares;
-    e["max_offset"] = s.max_offset;
-    steps.append(e);
-  }
-  d["steps"] = steps;
-  return d;
-}
-
-}  // namespace
-
 void bind_deformer(py::module_& m) {
   py::class_<Deformer, std::unique_ptr<Deformer>>(m, "Deformer")
       .def(py::init([](RefV V, RefF F, const Lattice& L, const std::string& outside, int threads) {
@@ -109,7 +82,7 @@ void bind_deformer(py::module_& m) {
           [](const Deformer& d, RefV P, bool preserve_volume, const std::string& axes,
              std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
              const std::vector<std::tuple<Index, Vector3d, Vector3d>>& constraints,
-             std::optional<double> target_volume, const std::string& method, int threads, bool allow_open) {
+             std::optional<double> target_volume, const std::string& method, int threads, bool allow_open, int rounds) {
             CorrectionOptions o;
             o.preserve_volume = preserve_volume;
             o.axes = parse_axes(axes);
@@ -120,6 +93,7 @@ void bind_deformer(py::module_& m) {
             o.method = parse_method(method);
             o.threads = threads;
             o.allow_open = allow_open;
+            o.rounds = rounds;
             DeformResult r;
             {
               py::gil_scoped_release release;
@@ -131,7 +105,7 @@ void bind_deformer(py::module_& m) {
           py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
           py::arg("constraints") = std::vector<std::tuple<Index, Vector3d, Vector3d>>{},
           py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0,
-          py::arg("allow_open") = false);
+          py::arg("allow_open") = false, py::arg("rounds") = 1);
 }
 
 }  // namespace vpffd::bindings

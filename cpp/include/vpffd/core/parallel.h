@@ -35,11 +35,16 @@ inline int resolve_threads(int requested) {
 #endif
 }
 
+/// Below this many items a loop runs on the calling thread: a parallel region
+/// costs a few microseconds on an idle machine, but up to a scheduler time slice
+/// (milliseconds) when the cores are shared, which dwarfs small loops.
+inline constexpr Index kParallelMin = 32768;
+
 /// Calls f(begin, end) on contiguous pieces of [0, n), in parallel.
 template <class F>
 void parallel_range(Index n, int threads, F&& f) {
   threads = resolve_threads(threads);
-  if (threads <= 1 || n < 2048) {
+  if (threads <= 1 || n < kParallelMin) {
     f(Index(0), n);
     return;
   }
@@ -66,7 +71,7 @@ template <class F>
 void parallel_chunks(Index n, int chunks, int threads, F&& f) {
   threads = resolve_threads(threads);
 #ifdef _OPENMP
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && chunks > 1)
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && chunks > 1 && n >= kParallelMin)
 #endif
   for (int c = 0; c < chunks; ++c) f(c, n * c / chunks, n * (c + 1) / chunks);
 }

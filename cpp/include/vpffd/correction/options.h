@@ -51,6 +51,11 @@ struct PointConstraint {
 struct CorrectionOptions {
   bool preserve_volume = true;
   std::vector<int> axes{0, 1, 2};  ///< corrections along these axes, in this order
+  /// Cycles through `axes` this many times, each step taking an equal share of
+  /// the volume still missing. 1 is the paper's method; more rounds spread the
+  /// correction evenly between the axes (the paper's x-then-y order favours x),
+  /// still exact, at the cost of one coefficient pass per step.
+  int rounds = 1;
   VectorXd weights;                ///< empty, or one weight > 0 per control point (Remark 2)
   std::vector<std::uint8_t> fixed; ///< empty, or 1 per control point that must not move
   std::vector<PointConstraint> constraints;

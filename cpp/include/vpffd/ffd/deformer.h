@@ -206,6 +206,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   // --- options ---------------------------------------------------------------
   const bool correcting = opt.preserve_volume || !opt.constraints.empty();
   if (correcting) VPFFD_CHECK(!opt.axes.empty(), "deform: axes is empty; name at least one of x, y, z");
+  VPFFD_CHECK(opt.rounds >= 1 && opt.rounds <= 64, "deform: rounds is ", opt.rounds, "; expected 1..64");
   for (int a : opt.axes) VPFFD_CHECK(a >= 0 && a < 3, "deform: axis ", a, " not in 0..2");
   VectorXd inv_weight = VectorXd::Ones(N);
   if (opt.weights.size() > 0) {
@@ -284,9 +285,10 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
 
   // --- axis steps -------------------------------------------------------------
   if (correcting) {
-    const int k = static_cast<int>(opt.axes.size());
+    const int naxes = static_cast<int>(opt.axes.size());
+    const int k = naxes * opt.rounds;
     for (int step = 0; step < k; ++step) {
-      const int a = opt.axes[step];
+      const int a = opt.axes[step % naxes];
       AxisStep info;
       info.axis = a;
       AxisCoefficients co;
@@ -298,11 +300,13 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
         info.share = (target - co.volume) / (k - step);
       }
       std::vector<double> rhs(nc);
-      for (size_t s = 0; s < nc; ++s) rhs[s] = opt.constraints[s].target[a] - row_dot(rows[s], P.col(a));
+      // Where the constraint point is now along a: earlier rounds may have moved it.
+      const VectorXd Pa = P.col(a) + res.offsets.col(a);
+      for (size_t s = 0; s < nc; ++s) rhs[s] = opt.constraints[s].target[a] - row_dot(rows[s], Pa);
       const VectorXd delta = solve_axis_offsets(opt.preserve_volume ? &co.alpha : nullptr, info.share, rows, rhs,
                                                 inv_weight, axis_name[a], &info.sum_squares);
       info.max_offset = delta.cwiseAbs().maxCoeff();
-      res.offsets.col(a) = delta;
+      res.offsets.col(a) += delta;
       gather(delta, X, a, threads);
       res.steps.push_back(info);
     }

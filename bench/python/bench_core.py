@@ -1,0 +1,29 @@
+#!/usr/bin/env python
+"""CPU benchmark of the volume-preserving frame (issue 2's table).
+
+    .venv/bin/python bench/python/bench_core.py [--repeats 7] [--no-shared] [--no-csr]
+
+Prints a markdown table (medians of --repeats runs, one process, one run) and
+writes bench/results/cpu_<host>.json. The meshes of ../shared/data/meshes are
+used when present; the icospheres are generated in code.
+"""
+import argparse
+import platform
+from pathlib import Path
+
+from vpffd.benchmark import run_benchmark
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--no-shared", action="store_true", help="only the generated meshes")
+    ap.add_argument("--no-csr", action="store_true", help="skip the paper's matrix (it needs ~1.4 GB for the dragon)")
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "results" /
+                                         f"cpu_{platform.node() or 'host'}.json"))
+    a = ap.parse_args()
+    run_benchmark(include_shared=not a.no_shared, repeats=a.repeats, with_csr=not a.no_csr, out=a.out)
+
+
+if __name__ == "__main__":
+    main()
