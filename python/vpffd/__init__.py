@@ -7,19 +7,35 @@
 >>> abs(r.volume - mesh.volume) < 1e-12 * mesh.volume
 True
 """
-from . import _core
+from ._cpu import check_isa as _check_isa
+
+_check_isa()
+from . import _core  # noqa: E402
 from ._core import (BackendUnavailableError, DeviceError, InvalidInputError, MeshIOError,  # noqa: F401
                     SolverError)
 from . import edits, shapes
-from .deformer import Deformer, DeformResult, available_backends
+from .deformer import Deformer, DeformResult, available_backends, vulkan_devices
 from .edits import bend, scale, squash, taper, twist
 from .lattice import Lattice
 from .mesh import Mesh
+from . import check, normals, render, io
+from .check import MeshCheck
+from .io import load_mesh, save_mesh
+from .normals import deformed_normals, vertex_normals
+from .render import Camera, Hit, Scene, pick, pick_pixel, save_png, load_png
+from .render import render as _render_function
+from . import animate
+from .animate import run_animation
 
 __version__ = _core.__version__
 
+# vpffd.render is both a submodule and the function; the function wins at the top level.
+render = _render_function
+
 __all__ = [
-    "Mesh", "Lattice", "Deformer", "DeformResult", "available_backends",
-    "twist", "bend", "taper", "scale", "squash", "edits", "shapes",
+    "Mesh", "Lattice", "Deformer", "DeformResult", "available_backends", "vulkan_devices",
+    "twist", "bend", "taper", "scale", "squash", "edits", "shapes", "animate", "run_animation",
     "InvalidInputError", "SolverError", "MeshIOError", "BackendUnavailableError", "DeviceError",
+    "load_mesh", "save_mesh", "MeshCheck", "check", "render", "save_png", "load_png", "Camera", "Hit", "Scene",
+    "pick", "pick_pixel", "vertex_normals", "deformed_normals", "normals", "io",
 ]

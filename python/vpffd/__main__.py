@@ -1,28 +1,393 @@
-"""The ``vpffd`` command."""
+"""The ``vpffd`` command: ``vpffd demo | deform | info | bench`` (``vpffd CMD --help``).
+
+Errors end the command with one line on stderr, ``vpffd CMD: error: ...``, and
+exit status 2 for bad arguments or 1 for anything else (bad or missing files,
+a correction that does not exist). ``VPFFD_TRACEBACK=1`` shows the traceback.
+"""
 from __future__ import annotations
 
 import argparse
+import os
+import re
 import sys
+import time
+import warnings
+
+from ._progress import Progress
+
+EXIT_ERROR, EXIT_USAGE = 1, 2
 
 
-def _demo(args) -> int:
+class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows defaults, except empty ones and those the help already states."""
+
+    def _get_help_string(self, action):
+        h = action.help or ""
+        if action.default in (None, False) or "default" in h:
+            return h
+        return super()._get_help_string(action)
+
+
+class _UsageError(Exception):
+    """Bad command-line value found after parsing (exit status 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error (argparse prints the usage first)."""
+
+    def error(self, message):
+        sys.stderr.write(f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+        sys.exit(EXIT_USAGE)
+
+
+# --- argument types ---------------------------------------------------------------
+def _lattice_shape(text: str):
+    parts = re.split(r"[x,]", text.strip().lower())
+    try:
+        n = [int(p) for p in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NxNxN such as 8x8x8 (or one number), got {text!r}") from None
+    if len(n) == 1:
+        n = n * 3
+    if len(n) != 3 or min(n) < 2 or max(n) > 64:
+        raise argparse.ArgumentTypeError(f"expected three sizes 2..64 such as 8x8x8, got {text!r}")
+    return tuple(n)
+
+
+def _size(text: str):
+    m = re.fullmatch(r"\s*(\d+)\s*[x,]\s*(\d+)\s*", text)
+    if not m or not (8 <= int(m.group(1)) <= 8192 and 8 <= int(m.group(2)) <= 8192):
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in pixels such as 320x240, got {text!r}")
+    return int(m.group(1)), int(m.group(2))
+
+
+def _vec3(text: str, what: str):
+    parts = text.split(",")
+    try:
+        v = [float(p) for p in parts]
+    except ValueError:
+        v = []
+    if len(v) != 3 or not all(abs(x) < float("inf") for x in v):
+        raise argparse.ArgumentTypeError(f"{what}: expected three numbers X,Y,Z, got {text!r}")
+    return v
+
+
+def _drag(text: str):
+    if text.count(":") != 1:
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z:TX,TY,TZ (a rest point and its target), got {text!r}")
+    a, b = text.split(":")
+    return _vec3(a, "--drag point"), _vec3(b, "--drag target")
+
+
+def _finite(text: str):
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not abs(x) < float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return x
+
+
+def _positive(text: str):
+    x = _finite(text)
+    if x <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return x
+
+
+def _positive_int(text: str):
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return n
+
+
+def _progress(label: str, total: int) -> Progress:
+    return Progress(label, total)
+
+
+# --- mesh files and pictures (vpffd.io / vpffd.render, optional parts of a build) ---
+def _io():
+    try:
+        from .io import load_mesh, save_mesh
+    except ImportError as e:
+        raise RuntimeError(f"reading and writing mesh files needs vpffd.io, which this build lacks ({e})") from None
+    return load_mesh, save_mesh
+
+
+def _extension(path: str) -> str:
+    name = os.path.basename(path).lower()
+    return name.rsplit(".", 1)[-1] if "." in name else ""
+
+
+def _formats() -> tuple:
+    """Extensions save_mesh writes (empty when this build has no mesh I/O)."""
+    try:
+        from .io import FORMATS
+    except ImportError:
+        return ()
+    return tuple(FORMATS)
+
+
+def _load(path: str):
+    if not os.path.exists(path):
+        raise FileNotFoundError(2, "no such file", path)
+    if os.path.isdir(path):
+        raise IsADirectoryError(21, "is a folder, not a mesh file", path)
+    return _io()[0](path)
+
+
+def _render_png(path, mesh, lattice, control_points, size):
+    import numpy as np
+    try:
+        from .render import Camera, render, save_png
+    except ImportError as e:
+        raise RuntimeError(f"--render needs vpffd.render, which this build lacks ({e})") from None
+    cam = Camera.framing(np.concatenate([mesh.vertices, control_points.reshape(-1, 3)]), size=size)
+    save_png(path, render(mesh, camera=cam, lattice=lattice, size=size, control_points=control_points))
+
+
+# --- commands ---------------------------------------------------------------------
+def _cmd_demo(args) -> int:
     from .demo import run_demo
-    run_demo(quick=args.quick)
+    run_demo(out=args.out, quick=args.quick, render=not args.no_render, size=args.size, progress=_progress)
     return 0
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="vpffd", description="Volume-preserving free-form deformation.")
-    sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("demo", help="deform built-in meshes with and without volume preservation")
-    p.add_argument("--quick", action="store_true", help="fewer frames")
-    p.set_defaults(func=_demo)
-    args = parser.parse_args(argv)
+def _cmd_deform(args) -> int:
+    if args.squash is not None and args.squash <= 0:
+        raise _UsageError(f"--squash: expected a positive factor, got {args.squash}")
+    if args.taper is not None and args.taper < 0:
+        raise _UsageError(f"--taper: expected a factor >= 0, got {args.taper}")
+    if args.degree < 1 or args.degree > 5:
+        raise _UsageError(f"--degree: expected 1..5, got {args.degree}")
+    if min(args.lattice) < args.degree + 1:
+        raise _UsageError(f"--lattice {'x'.join(map(str, args.lattice))} is too small for degree {args.degree} "
+                          f"(need at least {args.degree + 1} per axis)")
+    ext = _extension(args.output)
+    formats = _formats()
+    if formats and ext not in formats:
+        raise _UsageError(f"OUT: unknown mesh format {ext or '(none)'!r} of {args.output!r}; "
+                          f"expected one of {', '.join('.' + f for f in formats)}")
+    if args.render and not args.render.lower().endswith(".png"):
+        raise _UsageError(f"--render: expected a .png file name, got {args.render!r}")
+    out_dir = os.path.dirname(os.path.abspath(args.output))
+    if not os.path.isdir(out_dir):
+        raise FileNotFoundError(2, "output folder does not exist", out_dir)
+
+    # stages: read, embed, deform, write (the bar shows only past one second)
+    bar = Progress("deform", 4)
     try:
-        return args.func(args)
-    except (ValueError, RuntimeError, OSError) as e:
-        print(f"vpffd {args.command}: error: {e}", file=sys.stderr)
-        return 1
+        return _deform(args, bar)
+    finally:
+        bar.close()
+
+
+def _deform(args, bar) -> int:
+    import numpy as np
+
+    from . import edits
+    from .deformer import Deformer
+    from .lattice import Lattice
+    from .mesh import Mesh
+
+    mesh = _load(args.input)
+    bar(1, 4, "embedding")
+    lat = Lattice.around(mesh, shape=args.lattice, degree=args.degree, padding=args.padding)
+    P = np.array(lat.rest_points)
+    done = []
+    if args.squash is not None:
+        P = edits.squash(P, args.squash, axis=args.axis)
+        done.append(f"squash {args.squash:g} along {args.axis}")
+    if args.taper is not None:
+        P = edits.taper(P, args.taper, axis=args.axis)
+        done.append(f"taper {args.taper:g}")
+    if args.twist is not None:
+        P = edits.twist(P, args.twist, axis=args.axis)
+        done.append(f"twist {args.twist:g} deg about {args.axis}")
+    if args.bend is not None:
+        P = edits.bend(P, args.bend, axis=args.axis, toward=args.toward)
+        done.append(f"bend {args.bend:g} deg towards {args.toward}")
+    cons = [(np.array(a), np.array(b)) for a, b in (args.drag or [])]
+    if cons:
+        done.append(f"{len(cons)} dragged point{'s' * (len(cons) > 1)}")
+    preserve = args.preserve != "none"
+    if preserve and not mesh.is_closed:
+        e = mesh.edge_report()
+        raise ValueError(f"{args.input} is not a closed mesh ({e['boundary_edges']} boundary, "
+                         f"{e['nonmanifold_edges']} non-manifold, {e['misoriented_edges']} misoriented edges), "
+                         f"so it has no volume to keep; use --preserve none for a plain FFD")
+    d = Deformer(mesh, lat, backend=args.backend)
+    bar(2, 4, "deforming")
+    t0 = time.perf_counter()
+    r = d.deform(P, preserve_volume=preserve, axes=args.preserve if preserve else "xyz", constraints=cons or None)
+    ms = 1e3 * (time.perf_counter() - t0)
+    out = Mesh(r.vertices, mesh.faces)
+    bar(3, 4, "writing")
+    _io()[1](args.output, out)
+    bar(4, 4)
+    bar.close()
+    print(f"{args.input}: {mesh.n_vertices:,} vertices, {mesh.n_faces:,} faces; lattice "
+          f"{'x'.join(map(str, lat.shape))} degree {args.degree}; {', '.join(done) or 'no edit (identity)'}")
+    if mesh.is_closed:
+        rest = r.rest_volume
+        plain = f"plain FFD {r.volume_before:.6g} ({100 * (r.volume_before - rest) / rest:+.2f} %)"
+        if preserve:
+            kept = f"preserved along {args.preserve} {r.volume:.6g} (relative error {(r.volume - rest) / rest:+.1e})"
+        elif cons:
+            kept = f"with the dragged points {r.volume:.6g} ({100 * (r.volume - rest) / rest:+.2f} %, not preserved)"
+        else:
+            kept = "not preserved (--preserve none)"
+        print(f"  volume: rest {rest:.6g}, {plain}, {kept}")
+    else:
+        print("  the mesh is not closed: no volume (and no volume correction)")
+    if cons:
+        print(f"  dragged points reached their targets to {r.constraint_error:.1e}")
+    print(f"  {r.backend} backend, {ms:.1f} ms; wrote {args.output}")
+    if args.render:
+        _render_png(args.render, out, lat, r.control_points, args.size)
+        print(f"  picture: {args.render}")
+    return 0
+
+
+def _cmd_info(args) -> int:
+    mesh = _load(args.mesh)
+    check = getattr(mesh, "check", None)
+    if check is None:
+        raise RuntimeError("mesh checks need Mesh.check, which this build lacks")
+    report = check()
+    print(f"{args.mesh}: {report}")
+    return 0 if report.is_volume else EXIT_ERROR
+
+
+def _cmd_bench(args) -> int:
+    try:
+        from .benchmark import run_benchmark
+    except ImportError as e:
+        raise RuntimeError(f"the benchmark is not part of this build ({e})") from None
+    bar = Progress("bench", 1)
+    try:
+        run_benchmark(include_shared=not args.no_shared, repeats=args.repeats, with_csr=not args.no_csr,
+                      out=args.json, shape=args.lattice, degree=args.degree, progress=bar)
+    finally:
+        bar.close()
+    return 0
+
+
+# --- parser -----------------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="vpffd", description="Exact volume-preserving B-spline free-form deformation "
+                     "(Hahmann et al. 2012) of triangle meshes.",
+                     epilog="Run 'vpffd COMMAND --help' for the options of each command.")
+    parser.add_argument("--version", action="version", version=f"vpffd {_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    fmt = _Formatter
+
+    p = sub.add_parser("demo", formatter_class=fmt,
+                       help="the paper's twisting cube and bouncing ball, with and without volume preservation",
+                       description="Animates the paper's twisting cube (Figure 6) and bouncing ball (Figure 1) on "
+                       "built-in meshes, plain FFD against the volume-preserving FFD restricted to xy, z and xyz; "
+                       "prints the volume change of every frame and writes PNG frames, animated GIFs, key-frame "
+                       "sheets, volume.png and volume.csv.")
+    p.add_argument("--out", default="demo_out", metavar="DIR", help="output folder (created)")
+    p.add_argument("--size", type=_size, default=(320, 240), metavar="WxH",
+                   help="pixels of one panel (default: 320x240)")
+    p.add_argument("--quick", action="store_true", help="smaller meshes and fewer frames")
+    p.add_argument("--no-render", action="store_true", help="numbers and the volume plot only, no frames")
+    p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("deform", formatter_class=fmt, help="deform a mesh file with lattice edits",
+                       description="Deforms a mesh file with a lattice around it (edits applied in the order "
+                       "squash, taper, twist, bend, then dragged points) and keeps its volume exactly.")
+    p.add_argument("input", metavar="IN", help="mesh file to read (the formats of vpffd.load_mesh)")
+    p.add_argument("output", metavar="OUT", help="mesh file to write; the extension picks the format")
+    p.add_argument("--lattice", type=_lattice_shape, default=(8, 8, 8), metavar="NxNxN",
+                   help="control points per axis (default: 8x8x8)")
+    p.add_argument("--degree", type=int, default=3, help="B-spline degree, 1..5")
+    p.add_argument("--padding", type=_finite, default=0.05, help="lattice margin, in box extents")
+    p.add_argument("--twist", type=_finite, metavar="DEG", help="twist the top by DEG degrees about --axis")
+    p.add_argument("--bend", type=_finite, metavar="DEG", help="bend the --axis extent into an arc of DEG degrees")
+    p.add_argument("--taper", type=_finite, metavar="FACTOR", help="scale the top's cross-section by FACTOR")
+    p.add_argument("--squash", type=_finite, metavar="FACTOR", help="scale along --axis by FACTOR")
+    p.add_argument("--axis", choices=["x", "y", "z"], default="z", help="axis of the edits")
+    p.add_argument("--toward", choices=["x", "y", "z"], default="x", help="direction --bend curves towards")
+    p.add_argument("--drag", type=_drag, action="append", metavar="X,Y,Z:TX,TY,TZ",
+                   help="move the rest-space point X,Y,Z to TX,TY,TZ exactly (repeatable)")
+    p.add_argument("--preserve", choices=["xyz", "xy", "xz", "yz", "x", "y", "z", "none"], default="xyz",
+                   help="axes the volume correction may move control points along, or none")
+    p.add_argument("--backend", default="auto", help="auto, openmp or serial")
+    p.add_argument("--render", metavar="PNG", help="also write a picture of the result")
+    p.add_argument("--size", type=_size, default=(800, 600), metavar="WxH",
+                   help="--render picture size (default: 800x600)")
+    p.set_defaults(func=_cmd_deform)
+
+    p = sub.add_parser("info", formatter_class=fmt, help="check a mesh file (closed, oriented, volume, ...)",
+                       description="Reads a mesh file and reports what vpffd needs of it: closed, consistently "
+                       "oriented and outward, its volume. Exit status 1 when it cannot be volume-preserved.")
+    p.add_argument("mesh", metavar="MESH", help="mesh file")
+    p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser("bench", formatter_class=fmt, help="CPU benchmark table",
+                       description="Times FFD, the volume coefficients and whole frames on built-in meshes "
+                       "(and the shared test meshes when present); prints a markdown table.")
+    p.add_argument("--repeats", type=_positive_int, default=7, help="timed runs per case (median)")
+    p.add_argument("--lattice", type=_lattice_shape, default=(10, 10, 10), metavar="NxNxN",
+                   help="control points per axis (default: 10x10x10)")
+    p.add_argument("--degree", type=int, default=3, help="B-spline degree")
+    p.add_argument("--no-shared", action="store_true", help="built-in meshes only")
+    p.add_argument("--no-csr", action="store_true", help="skip the CSR coefficient method")
+    p.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
+    p.set_defaults(func=_cmd_bench)
+    return parser
+
+
+def _version() -> str:
+    try:
+        from . import __version__
+        return __version__
+    except ImportError:  # pragma: no cover - the compiled core is missing
+        return "(not built)"
+
+
+def _one_line(e: BaseException) -> str:
+    if isinstance(e, OSError) and e.filename is not None and e.strerror:
+        msg = f"{e.filename}: {e.strerror}"
+    else:
+        msg = str(e) or type(e).__name__
+    return " ".join(msg.split())
+
+
+def main(argv=None) -> int:
+    """Runs the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    prog = f"vpffd {args.command}"
+
+    def one_line_warning(message, category, filename, lineno, file=None, line=None):
+        print(f"{prog}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = one_line_warning
+            return args.func(args)
+    except _UsageError as e:
+        print(f"{prog}: error: {e} (see '{prog} --help')", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:  # one line, not a traceback, for whatever went wrong
+        if os.environ.get("VPFFD_TRACEBACK"):
+            raise
+        known = isinstance(e, (ValueError, TypeError, RuntimeError, OSError))
+        kind = "error" if known else f"internal error ({type(e).__name__})"
+        print(f"{prog}: {kind}: {_one_line(e)}", file=sys.stderr)
+        return EXIT_ERROR
 
 
 if __name__ == "__main__":

@@ -16,32 +16,78 @@ InvalidInputError = _core.InvalidInputError
 BackendUnavailableError = _core.BackendUnavailableError
 
 _CPU_BACKENDS = ("serial", "openmp")
+_VULKAN_ENV = "VPFFD_VULKAN_DEVICE"
+_TYPE_RANK = {"discrete": 0, "integrated": 1, "virtual": 2, "other": 3, "cpu": 4}
+
+
+def vulkan_devices() -> list:
+    """The Vulkan devices, one dict each: ``index``, ``name``, ``type`` ("discrete",
+    "integrated", "virtual", "cpu" for a software device such as lavapipe, or
+    "other"), ``memory_bytes`` (largest device-local heap), ``api_version``,
+    ``driver``, ``float64`` (shaderFloat64), ``suitable`` and, when not, ``reason``.
+    Empty when this build has no Vulkan backend or there is no loader or driver."""
+    if not getattr(_core, "has_vulkan", False):
+        return []
+    devices, _why = _core.vulkan_devices()
+    return list(devices)
+
+
+def _hardware_vulkan_device():
+    """Index (as a string) of the best suitable non-software device, or None."""
+    ok = [d for d in vulkan_devices() if d["suitable"] and d["type"] != "cpu"]
+    ok.sort(key=lambda d: _TYPE_RANK.get(d["type"], 3))
+    return str(ok[0]["index"]) if ok else None
 
 
 def available_backends() -> list:
-    """Backends this build can run here, best first for ``backend='auto'``."""
+    """Backends this build can run here, best first for ``backend='auto'``.
+    "vulkan" comes first with a GPU, last when the only device is a software one
+    (which ``auto`` does not take unless VPFFD_VULKAN_DEVICE names it)."""
     out = []
     if _core.has_openmp():
         out.append("openmp")
     out.append("serial")
+    devices = [d for d in vulkan_devices() if d["suitable"]]
+    if any(d["type"] != "cpu" for d in devices):
+        out.insert(0, "vulkan")
+    elif devices:
+        out.append("vulkan")
     return out
 
 
-def _resolve_backend(backend: str, threads):
+def _resolve_backend(backend: str, threads, device=None):
+    """(backend, threads for the CPU core, Vulkan device selector or None)."""
     if not isinstance(backend, str):
         raise TypeError(f"backend: expected a string, got {type(backend).__name__}")
+    if device is not None and not isinstance(device, (str, int, np.integer)) or isinstance(device, bool):
+        raise TypeError(f"device: expected a device index or name, got {type(device).__name__}")
+    selector = None if device is None else str(device)
+    env = os.environ.get(_VULKAN_ENV) or None
     if backend == "auto":
-        backend = "openmp" if _core.has_openmp() and (os.cpu_count() or 1) > 1 else "serial"
-    if backend not in _CPU_BACKENDS:
-        known = ", ".join(repr(b) for b in ("auto", *_CPU_BACKENDS))
+        # A GPU when there is one; a software device only when named.
+        if getattr(_core, "has_vulkan", False) and (selector or env):
+            backend = "vulkan"
+        elif getattr(_core, "has_vulkan", False) and _hardware_vulkan_device() is not None:
+            backend, selector = "vulkan", _hardware_vulkan_device()
+        else:
+            backend = "openmp" if _core.has_openmp() and (os.cpu_count() or 1) > 1 else "serial"
+    if backend not in (*_CPU_BACKENDS, "vulkan"):
+        known = ", ".join(repr(b) for b in ("auto", *_CPU_BACKENDS, "vulkan"))
         raise InvalidInputError(f"backend: unknown backend {backend!r}; known: {known}")
     if backend == "openmp" and not _core.has_openmp():
         raise BackendUnavailableError("backend 'openmp': this build has no OpenMP")
+    if backend == "vulkan" and not getattr(_core, "has_vulkan", False):
+        raise BackendUnavailableError("backend 'vulkan': this build has no Vulkan backend (it needs libvulkan-dev, "
+                                      "glslc and libvulkan-volk-dev at build time)")
+    if backend != "vulkan" and selector is not None:
+        raise InvalidInputError(f"device: only the 'vulkan' backend takes a device, not {backend!r}")
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
                                 or threads < 1):
         raise InvalidInputError(f"threads: expected a positive integer or None, got {threads!r}")
     n = 1 if backend == "serial" else int(threads or 0)
-    return backend, n
+    if backend == "vulkan" and selector is None:
+        selector = env or ""
+    return backend, n, selector
 
 
 @dataclass
@@ -100,22 +146,43 @@ class Deformer:
     mesh : Mesh, (vertices, faces) pair, or object with vertices/faces
     lattice : Lattice
         its box must contain the mesh (see ``outside``).
-    backend : {"auto", "openmp", "serial"}
-        "auto" takes the fastest available; ``available_backends()`` lists them.
+    backend : {"auto", "openmp", "serial", "vulkan"}
+        "auto" takes a GPU through Vulkan when there is one, else the CPU;
+        ``available_backends()`` lists them. "vulkan" runs every frame on the
+        device (float32 positions, float64 sums: vertices within ~1e-7 of the
+        lattice size of the CPU's, volume exact to ~1e-9) and raises
+        BackendUnavailableError saying why when there is no suitable device.
     outside : {"error", "extrapolate"}
         vertices outside the lattice box raise (default) or follow the boundary
         polynomial pieces.
     threads : int, optional
         OpenMP threads (default: all). Results do not depend on the thread count.
+    device : int or str, optional
+        Vulkan device: an index or part of its name (``vulkan_devices()``); default
+        the VPFFD_VULKAN_DEVICE environment variable, else the first suitable one
+        (GPUs before software devices). Naming one makes "auto" use Vulkan.
     """
 
-    def __init__(self, mesh, lattice: Lattice, backend: str = "auto", outside: str = "error", threads=None):
+    def __init__(self, mesh, lattice: Lattice, backend: str = "auto", outside: str = "error", threads=None,
+                 device=None):
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice: expected a vpffd.Lattice, got {type(lattice).__name__}")
         self.mesh = Mesh.from_any(mesh)
         self.lattice = lattice
-        self.backend, self._threads = _resolve_backend(backend, threads)
-        self._d = _core.Deformer(self.mesh.vertices, self.mesh.faces, lattice._spec, outside, self._threads)
+        self.backend, self._threads, selector = _resolve_backend(backend, threads, device)
+        self._vk = None
+        if self.backend == "vulkan":
+            try:
+                self._vk = _core.VulkanDeformer(self.mesh.vertices, self.mesh.faces, lattice._spec, outside, selector)
+            except (BackendUnavailableError, _core.DeviceError) as e:
+                if backend != "auto":
+                    raise
+                warnings.warn(f"Deformer: backend 'auto' could not use Vulkan ({e}); using the CPU", stacklevel=2)
+                self.backend, self._threads, _ = _resolve_backend("openmp" if _core.has_openmp() else "serial",
+                                                                  threads)
+        # The CPU core keeps the rest volume, matrices, ffd() and jacobians() for both.
+        self._d = self._vk.cpu if self._vk is not None else _core.Deformer(
+            self.mesh.vertices, self.mesh.faces, lattice._spec, outside, self._threads)
 
     # --- properties -----------------------------------------------------------
     @property
@@ -172,7 +239,7 @@ class Deformer:
 
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", weights=None,
                fixed=None, constraints=None, target_volume=None, method: str = "traversal",
-               allow_open: bool = False) -> DeformResult:
+               allow_open: bool = False, rounds: int = 1) -> DeformResult:
         """Deforms the mesh and corrects its volume.
 
         Parameters
@@ -196,6 +263,11 @@ class Deformer:
             default: the rest volume.
         method : {"traversal", "csr"}
             how the coefficients are computed (same result to ~1e-12).
+        rounds : int
+            cycle through ``axes`` this many times, each step taking an equal share
+            of the volume still missing: 1 is the paper's method; 3-4 rounds spread
+            the correction evenly (with "xy" the paper's order widens x more than y).
+            Exact either way; each extra round costs one more pass per axis.
         allow_open : bool
             correct the "volume" of a mesh that is not closed (with a warning):
             the cone volume from the lattice centre, which depends on that centre.
@@ -230,6 +302,8 @@ class Deformer:
                 cons.append((int(src), np.zeros(3), tgt))
             else:
                 cons.append((-1, _arrays.vector3(src, f"constraints[{i}] source"), tgt))
+        if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)):
+            raise TypeError(f"rounds: expected an integer, got {type(rounds).__name__}")
         tv = None
         if target_volume is not None:
             tv = float(target_volume)
@@ -238,7 +312,13 @@ class Deformer:
         if allow_open and preserve_volume and not self._d.is_closed:
             warnings.warn("deform: the mesh is not closed; the volume kept is that of the cone from the lattice "
                           "centre, which depends on where that centre is", stacklevel=2)
-        r = self._d.deform(P, bool(preserve_volume), axes, w, fx, cons, tv, method, self._threads, bool(allow_open))
+        args = (P, bool(preserve_volume), axes, w, fx, cons, tv, method, self._threads, bool(allow_open))
+        if self._vk is not None:
+            if rounds != 1:
+                raise InvalidInputError("rounds: the vulkan backend runs the paper's single round (rounds=1)")
+            r = self._vk.deform(*args)
+        else:
+            r = self._d.deform(*args, int(rounds))
         rest = self._d.rest_volume(True) if (self._d.is_closed or allow_open) else float("nan")
         return DeformResult(
             vertices=r["vertices"],
@@ -247,6 +327,18 @@ class Deformer:
             volume=r["volume"], volume_before=r["volume_before"], target_volume=r["target_volume"],
             rest_volume=rest, constraint_error=r["constraint_error"], steps=r["steps"],
             backend=self.backend, method=method)
+
+    @property
+    def device(self):
+        """The Vulkan device dict (see ``vulkan_devices()``), or None on the CPU."""
+        return self._vk.device if self._vk is not None else None
+
+    def last_timings(self):
+        """Vulkan only: times of the last frame in ms (``gpu_total_ms`` from timestamp
+        queries, ``gpu_ffd_ms``, ``gpu_steps_ms`` per axis, ``host_total_ms`` end to end)."""
+        if self._vk is None:
+            raise InvalidInputError("last_timings: only the 'vulkan' backend records frame timings")
+        return self._vk.last_timings()
 
     def __repr__(self) -> str:
         return f"Deformer({self.mesh!r}, {self.lattice!r}, backend={self.backend!r})"

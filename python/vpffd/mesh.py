@@ -92,5 +92,26 @@ class Mesh:
         centre = 0.5 * (self._V.min(axis=0) + self._V.max(axis=0))
         return _core.signed_volume(self._V, self._F, centre)
 
+    def check(self):
+        """Defect report: boundary edges and loops, non-manifold edges and vertices,
+        inconsistent or inward orientation, degenerate and duplicate faces,
+        duplicate and unreferenced vertices, components (a ``vpffd.check.MeshCheck``;
+        ``print`` it for a readable summary). Counted on the faces as stored."""
+        from .check import MeshCheck
+        return MeshCheck.of(self._V, self._F)
+
+    def oriented(self) -> "Mesh":
+        """A new Mesh with consistent winding and every closed component facing
+        outward (positive volume); self when nothing needs flipping. Open components
+        keep the winding of the majority of their faces."""
+        F, flipped, _conflicts, _inward = _core.orient_faces(self._V, self._F)
+        if flipped == 0:
+            return self
+        return Mesh(self._V, F)
+
+    def flipped(self) -> "Mesh":
+        """A new Mesh with every face's winding reversed (normals point the other way)."""
+        return Mesh(self._V, self._F[:, ::-1])
+
     def __repr__(self) -> str:
         return f"Mesh({self.n_vertices} vertices, {self.n_faces} faces)"

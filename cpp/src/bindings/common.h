@@ -35,6 +35,30 @@ inline py::tuple csr_copy_to_python(const CsrMatrix& A) {
   return csr_to_python(std::move(c));
 }
 
+/// A DeformResult as the dict that Deformer.deform returns (all backends).
+inline py::dict result_to_python(DeformResult&& r) {
+  py::dict d;
+  d["vertices"] = py::cast(std::move(r.vertices));
+  d["control_points"] = py::cast(std::move(r.control_points));
+  d["offsets"] = py::cast(std::move(r.offsets));
+  d["volume_before"] = r.volume_before;
+  d["volume"] = r.volume;
+  d["target_volume"] = r.target_volume;
+  d["constraint_error"] = r.constraint_error;
+  py::list steps;
+  for (const AxisStep& s : r.steps) {
+    py::dict e;
+    e["axis"] = std::string(1, char('x' + s.axis));
+    e["volume_before"] = s.volume_before;
+    e["share"] = s.share;
+    e["sum_squares"] = s.sum_squares;
+    e["max_offset"] = s.max_offset;
+    steps.append(e);
+  }
+  d["steps"] = steps;
+  return d;
+}
+
 void bind_lattice(py::module_& m);
 void bind_mesh(py::module_& m);
 void bind_deformer(py::module_& m);
@@ -42,5 +66,7 @@ void bind_edits(py::module_& m);
 void bind_vulkan(py::module_& m);  // bind_vulkan.cpp, with vpffd::vulkan
 void bind_io(py::module_& m);      // bind_io.cpp, with vpffd::io (OpenMesh)
 void bind_embree(py::module_& m);  // bind_embree.cpp, with vpffd::embree
+void bind_check(py::module_& m);   // bind_check.cpp: mesh defect report, orientation
+void bind_normals(py::module_& m); // bind_normals.cpp: rest and deformed normals
 
 }  // namespace vpffd::bindings

@@ -21,6 +21,8 @@ PYBIND11_MODULE(_core, m) {
   vpffd::bindings::bind_mesh(m);
   vpffd::bindings::bind_deformer(m);
   vpffd::bindings::bind_edits(m);
+  vpffd::bindings::bind_check(m);
+  vpffd::bindings::bind_normals(m);
 
   // Optional parts: each flag tells Python whether the part was built.
 #ifdef VPFFD_HAS_VULKAN

@@ -1,0 +1,191 @@
+#!/usr/bin/env python3
+"""The paper's Table 2 for vpffd: GPU (Vulkan) against CPU frame times.
+
+For each mesh (an icosphere and the closed meshes of ../shared/data/meshes):
+vertices, GPU FFD, CPU VOL (one axis), GPU VOL (one axis), the full xyz frame on
+CPU and GPU, and the factor CPU/GPU for the xyz frame. GPU stage times come from
+Vulkan timestamp queries inside the frame's single submission; "GPU xyz e2e" is
+the whole Deformer.deform call as a caller sees it (upload, submit, wait, read
+back of offsets and vertices), "GPU xyz kept" the same with the vertices left on
+the device (a renderer's case). CPU times are the OpenMP backend.
+
+    python bench/python/bench_gpu.py                  # all meshes, 10^3 cubic lattice
+    python bench/python/bench_gpu.py --max-vertices 50000 --repeats 3
+    VPFFD_VULKAN_DEVICE=llvmpipe python bench/python/bench_gpu.py
+
+On lavapipe (the CPU Vulkan driver) only correctness counts: its table is printed
+too, but says nothing about GPU speed. Results go to bench/results/gpu_<device>.csv/.json.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import gzip
+import json
+import os
+import platform
+import re
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import vpffd
+
+ROOT = Path(__file__).resolve().parents[2]
+SHARED_MESHES = ROOT.parent / "shared" / "data" / "meshes"
+
+
+def read_ply(path):
+    """Binary little-endian PLY with float32 x, y, z and 'list uchar int' triangles (gzipped or not)."""
+    raw = (gzip.open if str(path).endswith(".gz") else open)(path, "rb").read()
+    end = raw.index(b"end_header\n") + len(b"end_header\n")
+    header = raw[:end].decode("ascii").splitlines()
+    nv = next(int(h.split()[2]) for h in header if h.startswith("element vertex"))
+    nf = next(int(h.split()[2]) for h in header if h.startswith("element face"))
+    V = np.frombuffer(raw, dtype="<f4", count=3 * nv, offset=end).reshape(nv, 3).astype(np.float64)
+    rec = np.dtype([("n", "u1"), ("i", "<i4", (3,))])
+    F = np.frombuffer(raw, dtype=rec, count=nf, offset=end + 12 * nv)
+    if not (F["n"] == 3).all():
+        raise ValueError(f"{path}: not a triangle mesh")
+    return vpffd.Mesh(V, F["i"].astype(np.int32))
+
+
+def meshes(max_vertices):
+    out = [("icosphere5", vpffd.shapes.icosphere(5))]
+    if SHARED_MESHES.is_dir():
+        for p in sorted(SHARED_MESHES.iterdir()):
+            if p.name.startswith("BADINPUT") or not re.search(r"\.ply(\.gz)?$", p.name):
+                continue
+            out.append((re.sub(r"\.ply(\.gz)?$", "", p.name), p))
+    for name, m in out:
+        mesh = m if isinstance(m, vpffd.Mesh) else read_ply(m)
+        if max_vertices and mesh.n_vertices > max_vertices:
+            print(f"skip {name}: {mesh.n_vertices} vertices > --max-vertices {max_vertices}", file=sys.stderr)
+            continue
+        yield name, mesh
+
+
+def edit(lat):
+    """A twist plus a squash: changes the volume by about 20 %."""
+    P = vpffd.edits.twist(lat.rest_points, 0.6, axis="z")
+    return vpffd.edits.squash(P, 0.8, axis="z")
+
+
+def median_ms(fn, repeats):
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append((time.perf_counter() - t0) * 1e3)
+    return statistics.median(times)
+
+
+def bench_mesh(name, mesh, args):
+    lat = vpffd.Lattice.around(mesh, shape=args.shape, degree=args.degree)
+    P = edit(lat)
+    cpu = vpffd.Deformer(mesh, lat, backend="openmp" if "openmp" in vpffd.available_backends() else "serial")
+    gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=args.device)
+    r = args.repeats
+    cpu.deform(P)  # warm caches
+    cpu_ffd = median_ms(lambda: cpu.ffd(P), r)
+    cpu_x = median_ms(lambda: cpu.deform(P, axes="x"), r)
+    cpu_xyz = median_ms(lambda: cpu.deform(P), r)
+
+    for _ in range(2):  # shader compilation (JIT on lavapipe), first-touch of memory
+        gpu.deform(P)
+    gx = []
+    for _ in range(r):
+        gpu.deform(P, axes="x")
+        gx.append(gpu.last_timings())
+    gxyz, e2e, kept = [], [], []
+    for _ in range(r):
+        t0 = time.perf_counter()
+        res = gpu.deform(P)
+        e2e.append((time.perf_counter() - t0) * 1e3)
+        gxyz.append(gpu.last_timings())
+    Pflat = np.ascontiguousarray(P.reshape(-1, 3))
+    for _ in range(r):
+        t0 = time.perf_counter()
+        gpu._vk.deform(Pflat, read_vertices=False)
+        kept.append((time.perf_counter() - t0) * 1e3)
+    ref = cpu.deform(P)
+    diag = float(np.linalg.norm(lat.box_max - lat.box_min))
+    med = statistics.median
+    row = dict(
+        model=name, vertices=mesh.n_vertices, faces=int(mesh.faces.shape[0]),
+        lattice=f"{args.shape}^3 deg {args.degree}",
+        gpu_ffd_ms=med(t["gpu_ffd_ms"] for t in gx),
+        cpu_ffd_ms=cpu_ffd,
+        cpu_vol_x_ms=max(cpu_x - cpu_ffd, 0.0),
+        gpu_vol_x_ms=med(t["gpu_steps_ms"][0] for t in gx),
+        cpu_xyz_ms=cpu_xyz,
+        gpu_xyz_ms=med(t["gpu_total_ms"] for t in gxyz),
+        gpu_xyz_e2e_ms=med(e2e),
+        gpu_xyz_kept_ms=med(kept),
+        volume_error_gpu=abs(res.volume - res.target_volume) / abs(res.target_volume),
+        volume_error_cpu=abs(ref.volume - ref.target_volume) / abs(ref.target_volume),
+        max_vertex_dev_rel=float(np.abs(res.vertices - ref.vertices).max() / diag),
+    )
+    row["factor"] = row["cpu_xyz_ms"] / row["gpu_xyz_e2e_ms"]
+    return row
+
+
+COLUMNS = [("model", "model", "{}"), ("vertices", "vertices", "{}"), ("gpu_ffd_ms", "GPU FFD", "{:.2f}"),
+           ("cpu_vol_x_ms", "CPU VOL(x)", "{:.2f}"), ("gpu_vol_x_ms", "GPU VOL(x)", "{:.2f}"),
+           ("cpu_xyz_ms", "CPU xyz", "{:.2f}"), ("gpu_xyz_ms", "GPU xyz", "{:.2f}"),
+           ("gpu_xyz_e2e_ms", "GPU xyz e2e", "{:.2f}"), ("gpu_xyz_kept_ms", "GPU xyz kept", "{:.2f}"),
+           ("factor", "factor", "{:.2f}"), ("volume_error_gpu", "vol err GPU", "{:.1e}"),
+           ("max_vertex_dev_rel", "dev/diag", "{:.1e}")]
+
+
+def print_table(rows, device):
+    print(f"\nTable 2 (ms, medians) on {device['name']} ({device['type']}); CPU: {platform.processor() or 'cpu'}, "
+          f"{os.cpu_count()} cores")
+    head = [c[1] for c in COLUMNS]
+    cells = [[fmt.format(r[k]) for k, _, fmt in COLUMNS] for r in rows]
+    width = [max(len(h), *(len(c[i]) for c in cells)) for i, h in enumerate(head)]
+    print("  ".join(h.rjust(w) for h, w in zip(head, width)))
+    for c in cells:
+        print("  ".join(x.rjust(w) for x, w in zip(c, width)))
+    if device["type"] == "cpu":
+        print("(a software Vulkan device: these GPU times only show that the path runs, not GPU speed)")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--shape", type=int, default=10, help="control points per axis (default 10)")
+    ap.add_argument("--degree", type=int, default=3)
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--max-vertices", type=int, default=0, help="skip larger meshes (0: none)")
+    ap.add_argument("--device", default=os.environ.get("VPFFD_VULKAN_DEVICE", ""),
+                    help="Vulkan device index or name part (default: VPFFD_VULKAN_DEVICE, else the first suitable)")
+    ap.add_argument("--out", default=str(ROOT / "bench" / "results"))
+    args = ap.parse_args(argv)
+    if not vpffd._core.has_vulkan:
+        sys.exit("bench_gpu: this vpffd build has no Vulkan backend")
+    probe = vpffd.Deformer(vpffd.shapes.icosphere(1), vpffd.Lattice.around(vpffd.shapes.icosphere(1), shape=4),
+                           backend="vulkan", device=args.device)
+    device = probe.device
+    rows = []
+    for name, mesh in meshes(args.max_vertices):
+        print(f"{name}: {mesh.n_vertices} vertices ...", file=sys.stderr, flush=True)
+        rows.append(bench_mesh(name, mesh, args))
+    print_table(rows, device)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    slug = re.sub(r"[^A-Za-z0-9]+", "_", device["name"]).strip("_").lower()
+    with open(out / f"gpu_{slug}.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]) if rows else ["model"])
+        w.writeheader()
+        w.writerows(rows)
+    meta = dict(device=device, cpu=platform.processor(), cores=os.cpu_count(), python=platform.python_version(),
+                vpffd=vpffd.__version__, shape=args.shape, degree=args.degree, repeats=args.repeats, rows=rows)
+    (out / f"gpu_{slug}.json").write_text(json.dumps(meta, indent=1))
+    print(f"wrote {out / f'gpu_{slug}.csv'} and .json", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()

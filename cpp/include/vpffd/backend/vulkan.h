@@ -1,0 +1,113 @@
+#pragma once
+/// @file vulkan.h
+/// The GLSL/Vulkan compute backend (target vpffd::vulkan, macro VPFFD_HAS_VULKAN).
+///
+/// A VulkanDeformer runs a whole frame on one device: plain FFD, per corrected axis
+/// the volume coefficients, the closed-form offsets and the update of the vertices,
+/// and the volume measurements, in a single command buffer submission. Mesh data
+/// and per-vertex basis data are uploaded once; a frame uploads the control points
+/// (and its few option scalars) and reads back the N x 3 offsets and a few scalars;
+/// the vertices stay on the device until vertices() asks for them.
+///
+/// Precision: positions, control points and basis values are float32 on the device
+/// (positions relative to origin()); weights, coefficients, volumes and offsets are
+/// float64. Vertices agree with the CPU backend to about 1e-7 of the lattice size,
+/// and the corrected volume matches the target to about 1e-9 relative. Devices
+/// without shaderFloat64 are reported as unsuitable.
+///
+/// Vulkan is loaded at run time (volk): nothing here needs a Vulkan driver until a
+/// device is asked for, and then a missing one raises BackendUnavailableError.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "vpffd/correction/options.h"
+#include "vpffd/ffd/deformer.h"
+#include "vpffd/lattice/embed.h"
+#include "vpffd/lattice/lattice.h"
+
+namespace vpffd::vulkan {
+
+/// One physical device as the Vulkan loader reports it.
+struct DeviceInfo {
+  int index = -1;                 ///< position in vkEnumeratePhysicalDevices
+  std::string name;               ///< e.g. "NVIDIA H100 80GB HBM3", "llvmpipe (LLVM 15.0.6, 256 bits)"
+  std::string type;               ///< "discrete", "integrated", "virtual", "cpu" or "other"
+  std::uint64_t memory_bytes = 0; ///< largest device-local heap, bytes
+  std::string api_version;        ///< "1.3.239"
+  std::string driver;             ///< driver name and info when the driver reports them
+  bool float64 = false;           ///< shaderFloat64
+  bool suitable = false;          ///< usable by vpffd
+  std::string reason;             ///< why not, when !suitable
+  bool software() const { return type == "cpu"; }
+};
+
+/// Devices of the Vulkan loader; empty when there is no loader or no driver
+/// (then `why`, when given, says which).
+std::vector<DeviceInfo> devices(std::string* why = nullptr);
+
+/// GPU and host times of the last frame, milliseconds.
+struct FrameTimings {
+  double gpu_total = 0;           ///< timestamp queries: first to last command of the frame
+  double gpu_ffd = 0;             ///< plain FFD (and the volume before correction)
+  std::vector<double> gpu_steps;  ///< each axis step: coefficients, solve, offsets, vertex update
+  double gpu_final = 0;           ///< final volume measurement and copies
+  double host_total = 0;          ///< deform() call, end to end (upload, submit, wait, read back)
+  bool has_timestamps = false;    ///< false when the queue has no timestamp support
+};
+
+/// Volume-preserving FFD of one mesh on one Vulkan device. Same semantics, options,
+/// results and error messages as vpffd::Deformer (the CPU reference); only the
+/// arithmetic differs (see the file comment).
+class VulkanDeformer {
+ public:
+  /// Embeds the mesh (on the host, once) and uploads it.
+  /// @param[in] V       #V x 3 rest vertices
+  /// @param[in] F       #F x 3 triangles
+  /// @param[in] device  "" (the first suitable device: hardware before software),
+  ///                    a device index ("0"), or a case-insensitive part of its name
+  /// @throws InvalidInputError for bad input (as the CPU Deformer),
+  ///         BackendUnavailableError when no Vulkan or no suitable device is found,
+  ///         DeviceError when a Vulkan call fails (the message names the call)
+  VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F, Lattice L,
+                 OutsidePolicy policy = OutsidePolicy::Error, const std::string& device = "");
+  ~VulkanDeformer();
+  VulkanDeformer(const VulkanDeformer&) = delete;
+  VulkanDeformer& operator=(const VulkanDeformer&) = delete;
+
+  /// One frame with control points P (N x 3). `opt.method` and `opt.threads` are
+  /// ignored (the device always uses the traversal). With read_vertices false the
+  /// result's `vertices` is empty: call vertices() when they are needed.
+  /// @throws as Deformer::deform; a device failure throws DeviceError
+  DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
+                      bool read_vertices = true);
+
+  /// #V x 3 vertices of the last frame in the input order (the rest mesh before any frame).
+  RowMatrixX3d vertices() const;
+
+  /// The CPU Deformer of the same mesh: rest volume, edges, embedding, jacobians...
+  const Deformer& cpu() const;
+  const DeviceInfo& device() const;
+  const FrameTimings& last_timings() const;
+  /// Reference point of the device positions (the lattice centre), world units.
+  const Vector3d& origin() const;
+
+  /// For a renderer on the same VkDevice: the raw VkBuffer handles of the device
+  /// vertex buffer (#V x 3 float32, positions minus origin(), in the device's vertex
+  /// order) and index buffer (#F x 3 int32 in that order), and that order:
+  /// device vertex i is input vertex vertex_order()[i].
+  std::uint64_t vertex_buffer_handle() const;
+  std::uint64_t index_buffer_handle() const;
+  const std::vector<std::int32_t>& vertex_order() const;
+
+  /// Point constraints one frame may have on this backend.
+  static constexpr int max_constraints = 31;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vpffd::vulkan

@@ -1,0 +1,116 @@
+// The Vulkan backend: _core.VulkanDeformer (deform() as _core.Deformer.deform) and
+// _core.vulkan_devices().
+
+#include <optional>
+
+#include "common.h"
+#include "vpffd/backend/vulkan.h"
+
+namespace vpffd::bindings {
+
+namespace {
+
+py::dict device_to_python(const vulkan::DeviceInfo& d) {
+  py::dict o;
+  o["index"] = d.index;
+  o["name"] = d.name;
+  o["type"] = d.type;
+  o["memory_bytes"] = d.memory_bytes;
+  o["api_version"] = d.api_version;
+  o["driver"] = d.driver;
+  o["float64"] = d.float64;
+  o["suitable"] = d.suitable;
+  o["reason"] = d.reason;
+  return o;
+}
+
+}  // namespace
+
+void bind_vulkan(py::module_& m) {
+  using vulkan::VulkanDeformer;
+  m.def(
+      "vulkan_devices",
+      [] {
+        std::string why;
+        std::vector<vulkan::DeviceInfo> ds;
+        {
+          py::gil_scoped_release release;
+          ds = vulkan::devices(&why);
+        }
+        py::list out;
+        for (const auto& d : ds) out.append(device_to_python(d));
+        return py::make_tuple(out, why);
+      },
+      "([device dicts], why): the Vulkan devices, and why there are none when the list is empty.");
+
+  py::class_<VulkanDeformer, std::unique_ptr<VulkanDeformer>>(m, "VulkanDeformer")
+      .def(py::init([](RefV V, RefF F, const Lattice& L, const std::string& outside, const std::string& device) {
+             const OutsidePolicy pol = parse_outside_policy(outside);
+             py::gil_scoped_release release;
+             return std::make_unique<VulkanDeformer>(V, F, L, pol, device);
+           }),
+           py::arg("vertices"), py::arg("faces"), py::arg("lattice"), py::arg("outside") = "error",
+           py::arg("device") = "")
+      .def_property_readonly(
+          "cpu", [](const VulkanDeformer& d) -> const Deformer& { return d.cpu(); },
+          py::return_value_policy::reference_internal,
+          "The CPU Deformer of the same mesh (rest volume, ffd, jacobians, matrices).")
+      .def_property_readonly("device", [](const VulkanDeformer& d) { return device_to_python(d.device()); })
+      .def_property_readonly("origin", &VulkanDeformer::origin)
+      .def("vertices",
+           [](const VulkanDeformer& d) {
+             py::gil_scoped_release release;
+             return d.vertices();
+           })
+      .def("last_timings",
+           [](const VulkanDeformer& d) {
+             const vulkan::FrameTimings& t = d.last_timings();
+             py::dict o;
+             o["gpu_total_ms"] = t.gpu_total;
+             o["gpu_ffd_ms"] = t.gpu_ffd;
+             o["gpu_steps_ms"] = t.gpu_steps;
+             o["gpu_final_ms"] = t.gpu_final;
+             o["host_total_ms"] = t.host_total;
+             o["has_timestamps"] = t.has_timestamps;
+             return o;
+           })
+      .def_property_readonly("vertex_buffer_handle", &VulkanDeformer::vertex_buffer_handle)
+      .def_property_readonly("index_buffer_handle", &VulkanDeformer::index_buffer_handle)
+      .def_property_readonly("vertex_order",
+                             [](const VulkanDeformer& d) {
+                               const auto& o = d.vertex_order();
+                               return py::array_t<std::int32_t>(static_cast<py::ssize_t>(o.size()), o.data());
+                             })
+      .def_readonly_static("max_constraints", &VulkanDeformer::max_constraints)
+      .def(
+          "deform",
+          [](VulkanDeformer& d, RefV P, bool preserve_volume, const std::string& axes,
+             std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
+             const std::vector<std::tuple<Index, Vector3d, Vector3d>>& constraints,
+             std::optional<double> target_volume, const std::string& method, int threads, bool allow_open,
+             bool read_vertices) {
+            CorrectionOptions o;
+            o.preserve_volume = preserve_volume;
+            o.axes = parse_axes(axes);
+            if (weights) o.weights = std::move(*weights);
+            if (fixed) o.fixed = std::move(*fixed);
+            for (const auto& [v, p, t] : constraints) o.constraints.push_back({v, p, t});
+            if (target_volume) o.target_volume = *target_volume;
+            o.method = parse_method(method);
+            o.threads = threads;
+            o.allow_open = allow_open;
+            DeformResult r;
+            {
+              py::gil_scoped_release release;
+              r = d.deform(P, o, read_vertices);
+            }
+            return result_to_python(std::move(r));
+          },
+          py::arg("control_points"), py::arg("preserve_volume") = true, py::arg("axes") = "xyz",
+          py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
+          py::arg("constraints") = std::vector<std::tuple<Index, Vector3d, Vector3d>>{},
+          py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0,
+          py::arg("allow_open") = false, py::arg("read_vertices") = true);
+}
+
+}  // namespace vpffd::bindings

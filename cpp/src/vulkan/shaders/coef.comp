@@ -1,0 +1,66 @@
+#version 450
+// Volume coefficients of one axis, per tile of vertices (eqs. 13-18 as a traversal):
+// each vertex's weight w_v = sum of n_f / 6 over its faces, then the tile's
+// contribution sum_v w_v B_c(u_v) to its K^3 control points, and its share
+// sum_v x_v w_v of the volume.
+//
+// Why tiles: the vertices were sorted by lattice cell once, and a tile holds up to
+// 64 vertices of one cell, so all of them touch the same K^3 control points. The
+// workgroup reduces them in shared memory (each invocation owns a control point and
+// sums the tile's vertices in a fixed order) and writes one partial row per tile;
+// `combine` then adds the rows of each control point in tile order. The result is
+// the same on every run and every device, which float atomics would not give (and
+// float64 atomics are rare).
+#include "common.glsl"
+layout(local_size_x = 64) in;
+
+shared double s_w[64];
+shared double s_vol[64];
+shared float s_bu[64 * KMAX];
+shared float s_bv[64 * KMAX];
+shared float s_bw[64 * KMAX];
+
+void main() {
+  const int a = pc.axis;
+  const uint l = gl_LocalInvocationID.x;
+  for (uint t = gl_WorkGroupID.x; t < uint(NTILE); t += gl_NumWorkGroups.x) {
+    const ivec4 tile = tiles[t];
+    double w = 0.0, vol = 0.0;
+    if (int(l) < tile.y) {
+      const uint v = uint(tile.x) + l;
+      if ((pc.flags & 4) == 0) {
+        for (int p = adj_ptr[v]; p < adj_ptr[v + 1]; ++p) w += face_normal(adj_face[p], a);
+      } else {
+        for (int p = adj_ptr[v]; p < adj_ptr[v + 1]; ++p) {
+          const int f = adj_face[p];
+          w += cone_weight(f, F[3 * f] == int(v) ? 0 : F[3 * f + 1] == int(v) ? 1 : 2, a);
+        }
+      }
+      w *= 1.0 / 6.0;
+      vol = double(X[3 * v + a]) * w;
+      float bu[KMAX], bv[KMAX], bw[KMAX];
+      vertex_basis(v, bu, bv, bw);
+      for (int r = 0; r < KMAX; ++r) {
+        s_bu[l * KMAX + r] = bu[r];
+        s_bv[l * KMAX + r] = bv[r];
+        s_bw[l * KMAX + r] = bw[r];
+      }
+    }
+    s_w[l] = w;
+    s_vol[l] = vol;
+    barrier();
+    for (int o = int(l); o < KKK; o += 64) {
+      const int i = o / (KV * KW), j = (o / KW) % KV, k = o % KW;
+      double s = 0.0;
+      for (int q = 0; q < tile.y; ++q)
+        s += s_w[q] * (double(s_bu[q * KMAX + i]) * double(s_bv[q * KMAX + j]) * double(s_bw[q * KMAX + k]));
+      partial[t * KKK + o] = s;
+    }
+    for (uint h = 32; h > 0; h >>= 1) {
+      if (l < h) s_vol[l] += s_vol[l + h];
+      barrier();
+    }
+    if (l == 0) tile_vol[t] = s_vol[0];
+    barrier();
+  }
+}

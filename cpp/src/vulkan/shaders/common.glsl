@@ -1,0 +1,132 @@
+// Shared declarations of the vpffd compute shaders.
+//
+// Precision: positions, control points and basis values are float32 (the
+// positions are stored relative to the lattice centre, so their rounding is
+// relative to the mesh size, not to its distance from the world origin).
+// Everything that is summed over many vertices or faces (face normal components,
+// vertex weights, coefficients, volumes, offsets) is float64: a float32 sum over
+// ~1e6 faces would lose the 1e-6 relative volume target. The devices we accept
+// must therefore support shaderFloat64 (lavapipe and NVIDIA/AMD GPUs do).
+//
+// All reductions have a fixed shape (fixed dispatch sizes, fixed loop orders,
+// tree reductions in shared memory), so a frame gives bit-identical results on
+// every run: no floating-point atomics anywhere.
+
+#extension GL_GOOGLE_include_directive : require
+
+#define KMAX 6  // order (degree + 1) of a degree-5 spline
+
+// Sizes are specialization constants: fixed per Deformer, and they let the
+// compiler unroll the basis loops for the lattice's orders.
+layout(constant_id = 0) const int KU = 4;
+layout(constant_id = 1) const int KV = 4;
+layout(constant_id = 2) const int KW = 4;
+layout(constant_id = 3) const int NU = 4;
+layout(constant_id = 4) const int NV = 4;
+layout(constant_id = 5) const int NW = 4;
+layout(constant_id = 6) const int NVERT = 1;
+layout(constant_id = 7) const int NFACE = 1;
+layout(constant_id = 8) const int NTILE = 1;
+layout(constant_id = 9) const int POLY_V = 0;  // start of axis v's span table in `poly`
+layout(constant_id = 10) const int POLY_W = 0;
+layout(constant_id = 11) const int MAXC = 31;  // point constraints per frame
+
+const int NCP = NU * NV * NW;
+const int KKK = KU * KV * KW;
+
+layout(push_constant) uniform Push {
+  int axis;   // 0, 1, 2
+  int step;   // index of the axis step in this frame
+  int left;   // axis steps left including this one (the share divisor)
+  int flags;  // bit 0: volume row present; bit 1: max instead of sum (reduce); bit 2: cone weights
+  int slot;   // output slot of reduce passes
+  int count;  // number of partials / constraints
+} pc;
+
+layout(std430, set = 0, binding = 0) readonly buffer BufP { float P[]; };       // 3N, relative to the origin
+layout(std430, set = 0, binding = 1) buffer BufX { float X[]; };                // 3V, relative to the origin
+layout(std430, set = 0, binding = 2) readonly buffer BufF { int F[]; };         // 3F, sorted numbering
+layout(std430, set = 0, binding = 3) readonly buffer BufAdjPtr { int adj_ptr[]; };
+layout(std430, set = 0, binding = 4) readonly buffer BufAdj { int adj_face[]; };
+layout(std430, set = 0, binding = 5) readonly buffer BufSpan { int span[]; };   // 3V: first control index per axis
+layout(std430, set = 0, binding = 6) readonly buffer BufTau { float tau[]; };   // 3V
+layout(std430, set = 0, binding = 7) readonly buffer BufPoly { float poly[]; };
+layout(std430, set = 0, binding = 8) readonly buffer BufTile { ivec4 tiles[]; };  // start, count, first cp, -
+layout(std430, set = 0, binding = 9) buffer BufPart { double partial[]; };       // NTILE x KKK
+layout(std430, set = 0, binding = 10) buffer BufTileVol { double tile_vol[]; };  // NTILE
+layout(std430, set = 0, binding = 11) readonly buffer BufCombPtr { int comb_ptr[]; };
+layout(std430, set = 0, binding = 12) readonly buffer BufComb { int comb_idx[]; };
+layout(std430, set = 0, binding = 13) buffer BufAlpha { double alpha[]; };       // N
+layout(std430, set = 0, binding = 14) readonly buffer BufInvW { double inv_w[]; };  // N, 0 = fixed
+layout(std430, set = 0, binding = 15) buffer BufDelta { double delta[]; };       // 3N, axis-major
+// Frame parameters (see vulkan_deformer.cpp, FrameLayout): doubles and ints.
+layout(std430, set = 0, binding = 16) readonly buffer BufParD { double par_d[]; };
+layout(std430, set = 0, binding = 17) readonly buffer BufParI { int par_i[]; };
+layout(std430, set = 0, binding = 18) buffer BufStats { double stats[]; };
+layout(std430, set = 0, binding = 19) buffer BufRed { double red[]; };  // per-workgroup partials
+
+// FrameLayout, mirrored in vulkan_deformer.cpp.
+const int PD_TARGET = 0;
+const int PD_MAX_INVW = 1;
+const int PD_CONS = 8;             // per constraint: 3 x KMAX basis values, 3 rhs, |row|^2
+const int PD_CONS_STRIDE = 3 * KMAX + 4;
+const int PD_GCC = PD_CONS + 32 * PD_CONS_STRIDE;  // 32 >= MAXC  // nc x nc block R W^-1 R^T of the constraints
+const int PI_NC = 0;
+const int PI_CONS = 4;             // per constraint: first control index along u, v, w
+// Stats layout.
+const int ST_VOL_BEFORE = 0;
+const int ST_VOL = 1;
+const int ST_STEP = 8;             // per step: volume_before, share, sum_squares, max_offset, status, detail
+const int ST_STEP_STRIDE = 8;
+const int ST_LAMBDA = 64;          // per step: 32 multipliers
+const int ST_LAMBDA_STRIDE = 32;
+
+// Basis values of one axis at local parameter t: Horner on the span's power form
+// (the core's layout: coefficient of tau^q of function r at [q][r]).
+void eval_axis(int off, int K, int first, float t, out float b[KMAX]) {
+  const int base = off + first * K * K;
+  for (int r = 0; r < KMAX; ++r) {
+    if (r >= K) { b[r] = 0.0; continue; }
+    float v = poly[base + (K - 1) * K + r];
+    for (int q = K - 2; q >= 0; --q) v = v * t + poly[base + q * K + r];
+    b[r] = v;
+  }
+}
+
+// Basis values of vertex v; returns its first control point index.
+int vertex_basis(uint v, out float bu[KMAX], out float bv[KMAX], out float bw[KMAX]) {
+  const int i0 = span[3 * v], j0 = span[3 * v + 1], k0 = span[3 * v + 2];
+  eval_axis(0, KU, i0, tau[3 * v], bu);
+  eval_axis(POLY_V, KV, j0, tau[3 * v + 1], bv);
+  eval_axis(POLY_W, KW, k0, tau[3 * v + 2], bw);
+  return (i0 * NV + j0) * NW + k0;
+}
+
+// Component `a` of face f's unnormalised normal (p1 - p0) x (p2 - p0), in double.
+double face_normal(int f, int a) {
+  const int a1 = (a + 1) % 3, a2 = (a + 2) % 3;
+  const int v0 = F[3 * f], v1 = F[3 * f + 1], v2 = F[3 * f + 2];
+  const double p0a = X[3 * v0 + a1], p0b = X[3 * v0 + a2];
+  const double e1a = double(X[3 * v1 + a1]) - p0a, e1b = double(X[3 * v1 + a2]) - p0b;
+  const double e2a = double(X[3 * v2 + a1]) - p0a, e2b = double(X[3 * v2 + a2]) - p0b;
+  return e1a * e2b - e1b * e2a;
+}
+
+// Value of constraint s's basis row at control point c (0 outside its support).
+double constraint_row(int s, int c) {
+  const int i = c / (NV * NW) - par_i[PI_CONS + 3 * s];
+  const int j = (c / NW) % NV - par_i[PI_CONS + 3 * s + 1];
+  const int k = c % NW - par_i[PI_CONS + 3 * s + 2];
+  if (i < 0 || i >= KU || j < 0 || j >= KV || k < 0 || k >= KW) return 0.0;
+  const int o = PD_CONS + s * PD_CONS_STRIDE;
+  return par_d[o + i] * par_d[o + KMAX + j] * par_d[o + 2 * KMAX + k];
+}
+
+// Face f's contribution to the weight of its corner c for an open mesh: the exact
+// gradient of the cone volume from the origin, ((x_m - o) x (x_n - o))_a with m, n
+// the next corners (positions are already relative to the origin).
+double cone_weight(int f, int c, int a) {
+  const int a1 = (a + 1) % 3, a2 = (a + 2) % 3;
+  const int m = F[3 * f + (c + 1) % 3], n = F[3 * f + (c + 2) % 3];
+  return double(X[3 * m + a1]) * double(X[3 * n + a2]) - double(X[3 * m + a2]) * double(X[3 * n + a1]);
+}

@@ -1,0 +1,29 @@
+#version 450
+// Plain FFD of every vertex (eq. 1): X = sum_ijk B_i(u) B_j(v) B_k(w) P_ijk.
+#include "common.glsl"
+layout(local_size_x = 256) in;
+
+void main() {
+  const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+  for (uint v = gl_GlobalInvocationID.x; v < uint(NVERT); v += stride) {
+    float bu[KMAX], bv[KMAX], bw[KMAX];
+    const int base = vertex_basis(v, bu, bv, bw);
+    vec3 acc = vec3(0.0);
+    for (int i = 0; i < KU; ++i) {
+      vec3 ai = vec3(0.0);
+      for (int j = 0; j < KV; ++j) {
+        const int row = base + (i * NV + j) * NW;
+        vec3 aj = vec3(0.0);
+        for (int k = 0; k < KW; ++k) {
+          const int c = 3 * (row + k);
+          aj += bw[k] * vec3(P[c], P[c + 1], P[c + 2]);
+        }
+        ai += bv[j] * aj;
+      }
+      acc += bu[i] * ai;
+    }
+    X[3 * v] = acc.x;
+    X[3 * v + 1] = acc.y;
+    X[3 * v + 2] = acc.z;
+  }
+}

@@ -1,0 +1,27 @@
+#version 450
+// Enclosed volume, per workgroup: sum_f p0 . (p1 x p2) with positions relative to
+// the lattice centre (the CPU's signed_volume), in double; `reduce` adds the
+// per-workgroup partials in a fixed order.
+#include "common.glsl"
+layout(local_size_x = 256) in;
+shared double s_sum[256];
+
+void main() {
+  const uint l = gl_LocalInvocationID.x;
+  const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+  double s = 0.0;
+  for (uint f = gl_GlobalInvocationID.x; f < uint(NFACE); f += stride) {
+    const int v0 = F[3 * f], v1 = F[3 * f + 1], v2 = F[3 * f + 2];
+    const dvec3 a = dvec3(X[3 * v0], X[3 * v0 + 1], X[3 * v0 + 2]);
+    const dvec3 b = dvec3(X[3 * v1], X[3 * v1 + 1], X[3 * v1 + 2]);
+    const dvec3 c = dvec3(X[3 * v2], X[3 * v2 + 1], X[3 * v2 + 2]);
+    s += dot(a, cross(b, c));
+  }
+  s_sum[l] = s;
+  barrier();
+  for (uint h = 128; h > 0; h >>= 1) {
+    if (l < h) s_sum[l] += s_sum[l + h];
+    barrier();
+  }
+  if (l == 0) red[gl_WorkGroupID.x] = s_sum[0] / 6.0;
+}

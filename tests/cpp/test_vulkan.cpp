@@ -1,0 +1,177 @@
+// The Vulkan backend against the CPU reference (runs on lavapipe without a GPU).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "vpffd/vpffd.h"
+
+#ifdef VPFFD_HAS_VULKAN
+#include "vpffd/backend/vulkan.h"
+
+namespace {
+
+using namespace vpffd;
+
+bool have_device() {
+  for (const auto& d : vulkan::devices())
+    if (d.suitable) return true;
+  return false;
+}
+
+#define REQUIRE_DEVICE() \
+  if (!have_device()) GTEST_SKIP() << "no suitable Vulkan device"
+
+struct Scene {
+  RowMatrixX3d V;
+  RowMatrixX3i F;
+  Lattice L;
+};
+
+Scene sphere(int subdiv, int degree, std::array<int, 3> dims) {
+  Scene s;
+  auto m = icosphere(subdiv);
+  s.V = m.V;
+  s.F = m.F;
+  s.L = make_lattice(Vector3d::Constant(-1.1), Vector3d::Constant(1.2), dims, {degree, degree, degree});
+  return s;
+}
+
+// A smooth, volume-changing edit of the rest control points.
+RowMatrixX3d edit(const Lattice& L) {
+  RowMatrixX3d P = rest_control_points(L);
+  for (Index c = 0; c < P.rows(); ++c) {
+    const double x = P(c, 0), y = P(c, 1), z = P(c, 2);
+    P(c, 0) = x * (1.0 + 0.3 * z) + 0.1 * y * y;
+    P(c, 1) = y * 0.8 + 0.05 * x;
+    P(c, 2) = z * 1.2 + 0.1 * std::sin(2 * x);
+  }
+  return P;
+}
+
+void expect_close(const DeformResult& g, const DeformResult& c, const Lattice& L) {
+  const double diag = (L.box_max - L.box_min).norm();
+  ASSERT_EQ(g.vertices.rows(), c.vertices.rows());
+  EXPECT_LE((g.vertices - c.vertices).cwiseAbs().maxCoeff(), 1e-5 * diag);
+  EXPECT_LE(std::abs(g.volume - c.volume), 1e-6 * std::abs(c.volume));
+  if (!std::isnan(c.target_volume)) EXPECT_LE(std::abs(g.volume - g.target_volume), 1e-6 * std::abs(g.target_volume));
+  ASSERT_EQ(g.steps.size(), c.steps.size());
+}
+
+TEST(Vulkan, DevicesListed) {
+  std::string why;
+  const auto ds = vulkan::devices(&why);
+  if (ds.empty()) GTEST_SKIP() << why;
+  for (const auto& d : ds) {
+    EXPECT_FALSE(d.name.empty());
+    EXPECT_FALSE(d.type.empty());
+  }
+}
+
+TEST(Vulkan, MatchesCpuAllAxisSubsets) {
+  REQUIRE_DEVICE();
+  Scene s = sphere(3, 3, {5, 6, 5});
+  Deformer cpu(s.V, s.F, s.L);
+  vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+  const RowMatrixX3d P = edit(s.L);
+  for (const char* axes : {"x", "y", "z", "xy", "yz", "zx", "xyz", "zyx"}) {
+    CorrectionOptions o;
+    o.axes = parse_axes(axes);
+    const DeformResult c = cpu.deform(P, o), g = gpu.deform(P, o);
+    SCOPED_TRACE(axes);
+    expect_close(g, c, s.L);
+    EXPECT_LE((g.offsets - c.offsets).cwiseAbs().maxCoeff(), 1e-4 * c.offsets.cwiseAbs().maxCoeff() + 1e-12);
+  }
+}
+
+TEST(Vulkan, WeightsFixedConstraintsAndDegrees) {
+  REQUIRE_DEVICE();
+  for (int degree : {1, 2, 4, 5}) {
+    Scene s = sphere(2, degree, {degree + 3, degree + 2, degree + 4});
+    Deformer cpu(s.V, s.F, s.L);
+    vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+    const Index N = s.L.n_control_points();
+    CorrectionOptions o;
+    o.weights = VectorXd::LinSpaced(N, 1.0, 3.0);
+    o.fixed.assign(N, 0);
+    o.fixed[0] = o.fixed[N - 1] = 1;
+    PointConstraint pc;
+    pc.vertex = 0;
+    pc.target = s.V.row(0).transpose() + Vector3d(0.05, -0.02, 0.03);
+    o.constraints.push_back(pc);
+    const RowMatrixX3d P = edit(s.L);
+    const DeformResult c = cpu.deform(P, o), g = gpu.deform(P, o);
+    SCOPED_TRACE(degree);
+    expect_close(g, c, s.L);
+    EXPECT_LE(g.constraint_error, 1e-9);
+    EXPECT_EQ(g.offsets(0, 0), 0.0);
+  }
+}
+
+TEST(Vulkan, SameErrorsAsCpu) {
+  REQUIRE_DEVICE();
+  // A small sphere in a big lattice: the corner control point does not touch it.
+  Scene s = sphere(2, 2, {8, 8, 8});
+  s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
+  Deformer cpu(s.V, s.F, s.L);
+  vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+  const RowMatrixX3d P = rest_control_points(s.L);
+  auto message = [](auto&& f) -> std::string {
+    try {
+      f();
+    } catch (const SolverError& e) {
+      return std::string("SolverError: ") + e.what();
+    } catch (const InvalidInputError& e) {
+      return std::string("InvalidInputError: ") + e.what();
+    }
+    return "";
+  };
+  auto same = [&](const CorrectionOptions& o, const RowMatrixX3d& PP) {
+    const std::string a = message([&] { cpu.deform(PP, o); });
+    const std::string b = message([&] { gpu.deform(PP, o); });
+    EXPECT_FALSE(a.empty());
+    EXPECT_EQ(a, b);
+  };
+  CorrectionOptions corner_free;  // zero volume coefficients on the device
+  corner_free.fixed.assign(s.L.n_control_points(), 1);
+  corner_free.fixed[0] = 0;
+  same(corner_free, P);
+  CorrectionOptions all_fixed;  // checked on the host
+  all_fixed.fixed.assign(s.L.n_control_points(), 1);
+  same(all_fixed, P);
+  CorrectionOptions twice;  // dependent rows: the device's eigenvalue test
+  PointConstraint pc;
+  pc.vertex = 3;
+  pc.target = s.V.row(3).transpose();
+  twice.constraints = {pc, pc};
+  twice.preserve_volume = false;
+  same(twice, P);
+  CorrectionOptions bad_axes;
+  bad_axes.axes = {};
+  same(bad_axes, P);
+  same(CorrectionOptions{}, P.topRows(3));
+  RowMatrixX3i Fbad = s.F;
+  Fbad(0, 0) = 100000;
+  EXPECT_THROW(vulkan::VulkanDeformer(s.V, Fbad, s.L), InvalidInputError);
+}
+
+TEST(Vulkan, SecondDeformerAndManyFrames) {
+  REQUIRE_DEVICE();
+  Scene s = sphere(2, 3, {5, 5, 5});
+  vulkan::VulkanDeformer a(s.V, s.F, s.L);
+  vulkan::VulkanDeformer b(s.V, s.F, s.L);
+  const RowMatrixX3d P = edit(s.L);
+  const DeformResult ra = a.deform(P, {}), rb = b.deform(P, {});
+  EXPECT_EQ((ra.vertices - rb.vertices).cwiseAbs().maxCoeff(), 0.0);  // deterministic
+  for (int f = 0; f < 20; ++f) a.deform(P * (1.0 + 0.01 * f), {}, false);
+  EXPECT_LE(std::abs(a.deform(P, {}).volume - ra.volume), 1e-12 * std::abs(ra.volume));
+}
+
+TEST(Vulkan, BadDeviceNameRaises) {
+  Scene s = sphere(1, 2, {3, 3, 3});
+  EXPECT_THROW(vulkan::VulkanDeformer(s.V, s.F, s.L, OutsidePolicy::Error, "no-such-device-xyz"),
+               BackendUnavailableError);
+}
+
+}  // namespace
+#endif

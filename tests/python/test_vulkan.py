@@ -1,0 +1,266 @@
+"""The Vulkan backend against the CPU backend.
+
+Runs on any Vulkan device, lavapipe included (CI has no GPU): meshes are small
+because lavapipe is 10-20x slower than the C++ loops. Tolerances (the backend's
+stated precision): vertices within 1e-5 of the lattice box diagonal (float32
+positions), volumes within 1e-6 relative of the CPU's and of the target.
+"""
+import gzip
+import os
+import resource
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vpffd
+from vpffd import _core
+
+SHARED_MESHES = Path(__file__).resolve().parents[2].parent / "shared/data/meshes"
+
+
+def _device():
+    if not getattr(_core, "has_vulkan", False):
+        return None
+    ok = [d for d in vpffd.vulkan_devices() if d["suitable"]]
+    return ok[0] if ok else None
+
+
+DEVICE = _device()
+pytestmark = pytest.mark.skipif(DEVICE is None, reason="no Vulkan backend in this build or no suitable device")
+SEL = str(DEVICE["index"]) if DEVICE else ""
+
+
+def read_ply(path):
+    """Binary little-endian PLY with float32 x, y, z and 'list uchar int' triangles."""
+    raw = (gzip.open if str(path).endswith(".gz") else open)(path, "rb").read()
+    end = raw.index(b"end_header\n") + len(b"end_header\n")
+    header = raw[:end].decode("ascii").splitlines()
+    nv = next(int(h.split()[2]) for h in header if h.startswith("element vertex"))
+    nf = next(int(h.split()[2]) for h in header if h.startswith("element face"))
+    V = np.frombuffer(raw, dtype="<f4", count=3 * nv, offset=end).reshape(nv, 3).astype(np.float64)
+    rec = np.dtype([("n", "u1"), ("i", "<i4", (3,))])
+    F = np.frombuffer(raw, dtype=rec, count=nf, offset=end + 12 * nv)
+    assert (F["n"] == 3).all()
+    return vpffd.Mesh(V, F["i"].astype(np.int32))
+
+
+def edit(lat):
+    P = lat.rest_points.copy()
+    c = lat.center
+    x, y, z = (P[..., a] - c[a] for a in range(3))
+    s = np.ptp(lat.rest_points.reshape(-1, 3), axis=0).max()
+    P[..., 0] += 0.15 * x * z / s + 0.05 * y * y / s
+    P[..., 1] *= 0.85
+    P[..., 2] += 0.08 * s * np.sin(3 * x / s)
+    return P
+
+
+def pair(mesh, lat, **kw):
+    return vpffd.Deformer(mesh, lat, backend="serial", **kw), vpffd.Deformer(mesh, lat, backend="vulkan",
+                                                                            device=SEL, **kw)
+
+
+def assert_close(g, c, lat):
+    diag = np.linalg.norm(lat.box_max - lat.box_min)
+    dv = np.abs(g.vertices - c.vertices).max()
+    assert dv <= 1e-5 * diag, (dv, diag)
+    assert abs(g.volume - c.volume) <= 1e-6 * abs(c.volume)
+    if np.isfinite(c.target_volume):
+        assert abs(g.volume - g.target_volume) <= 1e-6 * abs(g.target_volume)
+    assert [s["axis"] for s in g.steps] == [s["axis"] for s in c.steps]
+    assert g.constraint_error <= max(1e-9, 10 * c.constraint_error)
+    return dv / diag
+
+
+@pytest.fixture(scope="module")
+def sphere():
+    mesh = vpffd.shapes.icosphere(3)
+    lat = vpffd.Lattice.around(mesh, shape=(5, 6, 5), degree=3)
+    cpu, gpu = pair(mesh, lat)
+    return mesh, lat, cpu, gpu
+
+
+@pytest.mark.parametrize("axes", ["x", "y", "z", "xy", "yz", "zx", "xyz", "zyx"])
+def test_every_axis_subset(sphere, axes):
+    mesh, lat, cpu, gpu = sphere
+    P = edit(lat)
+    c, g = cpu.deform(P, axes=axes), gpu.deform(P, axes=axes)
+    assert_close(g, c, lat)
+    assert g.backend == "vulkan"
+    np.testing.assert_allclose(g.offsets, c.offsets, atol=1e-4 * np.abs(c.offsets).max())
+
+
+def test_weights_fixed_and_constraints(sphere):
+    mesh, lat, cpu, gpu = sphere
+    P = edit(lat)
+    rng = np.random.default_rng(1)
+    w = rng.uniform(0.5, 2.0, lat.shape)
+    fixed = np.zeros(lat.shape, bool)
+    fixed[0, :, :] = True
+    cons = [(7, mesh.vertices[7] + [0.02, 0.0, -0.03]),
+            (mesh.vertices[40] * 0.9, mesh.vertices[40] * 0.9 + [0.0, 0.04, 0.0])]
+    for kw in (dict(weights=w), dict(fixed=fixed), dict(constraints=cons),
+               dict(weights=w, fixed=fixed, constraints=cons, axes="zyx"),
+               dict(weights=w, fixed=fixed, axes="zx"),
+               dict(constraints=cons, preserve_volume=False),
+               dict(target_volume=1.1 * mesh.volume, axes="y")):
+        c, g = cpu.deform(P, **kw), gpu.deform(P, **kw)
+        assert_close(g, c, lat)
+        if "fixed" in kw:
+            assert np.all(g.offsets[fixed] == 0)
+
+
+@pytest.mark.parametrize("degree", [1, 2, 4, 5])
+def test_degrees_and_knots(degree):
+    mesh = vpffd.shapes.icosphere(2)
+    shape = (degree + 3, degree + 2, degree + 4)
+    lat = vpffd.Lattice.around(mesh, shape=shape, degree=degree)
+    if degree == 2:  # non-uniform knots with a double interior knot along x
+        kx = np.r_[np.zeros(3), 0.5, 0.5, np.ones(3)]
+        lat = vpffd.Lattice(lat.box_min, lat.box_max, shape=shape, degree=degree,
+                            knots=(kx, lat.knots[1], lat.knots[2]))
+    cpu, gpu = pair(mesh, lat)
+    P = edit(lat)
+    assert_close(gpu.deform(P), cpu.deform(P), lat)
+
+
+def test_mixed_degrees():
+    mesh = vpffd.shapes.icosphere(2)
+    lat = vpffd.Lattice.around(mesh, shape=(4, 6, 7), degree=(1, 3, 5))
+    cpu, gpu = pair(mesh, lat)
+    P = edit(lat)
+    assert_close(gpu.deform(P, axes="yz"), cpu.deform(P, axes="yz"), lat)
+
+
+def test_real_mesh():
+    path = SHARED_MESHES / "bunny_watertight.ply"
+    if not path.exists():
+        pytest.skip("../shared/data/meshes is not present")
+    mesh = read_ply(path)
+    lat = vpffd.Lattice.around(mesh, shape=(6, 6, 6), degree=3)
+    cpu, gpu = pair(mesh, lat)
+    P = edit(lat)
+    for axes in ("xyz", "z"):
+        rel = assert_close(gpu.deform(P, axes=axes), cpu.deform(P, axes=axes), lat)
+        assert rel < 1e-6
+    cons = [(100, mesh.vertices[100] * 1.01)]
+    kw = dict(constraints=cons, weights=np.linspace(1, 2, lat.n_control_points))
+    assert_close(gpu.deform(P, **kw), cpu.deform(P, **kw), lat)
+
+
+def test_deterministic_and_no_growth(sphere):
+    mesh, lat, cpu, gpu = sphere
+    P = edit(lat)
+    first = gpu.deform(P)
+    for _ in range(20):  # warm-up: allocator pools, JIT
+        gpu.deform(P * 1.01)
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    for i in range(200):
+        gpu._vk.deform(np.ascontiguousarray((P * (1 + 1e-4 * i)).reshape(-1, 3)), read_vertices=(i % 10 == 0))
+    rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    assert rss1 - rss0 < 2048, (rss0, rss1)  # KiB: no per-frame device or host buffers
+    again = gpu.deform(P)
+    assert np.array_equal(first.vertices, again.vertices) and first.volume == again.volume
+    # Deformers release their buffers: create and drop several.
+    for _ in range(5):
+        vpffd.Deformer(mesh, lat, backend="vulkan", device=SEL).deform(P)
+    rss2 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    assert rss2 - rss1 < 16384, (rss1, rss2)
+
+
+def test_second_deformer_same_device(sphere):
+    mesh, lat, cpu, gpu = sphere
+    other_mesh = vpffd.shapes.icosphere(2, radius=0.8)
+    other = vpffd.Deformer(other_mesh, lat, backend="vulkan", device=SEL)
+    P = edit(lat)
+    a, b = gpu.deform(P), other.deform(P)
+    assert abs(b.volume - other_mesh.volume) <= 1e-6 * other_mesh.volume
+    assert abs(a.volume - mesh.volume) <= 1e-6 * mesh.volume
+    assert gpu.device["index"] == other.device["index"]
+
+
+def _error(fn):
+    try:
+        fn()
+    except Exception as e:  # noqa: BLE001
+        return type(e).__name__, str(e)
+    return None
+
+
+def test_bad_input_same_errors(sphere):
+    mesh, lat, cpu, gpu = sphere
+    P = lat.rest_points
+    n = lat.n_control_points
+    cases = [
+        dict(control_points=P[:2]),
+        dict(control_points=np.full_like(P, np.nan)),
+        dict(axes=""), dict(axes="xw"), dict(axes="xx"),
+        dict(weights=np.zeros(n)), dict(weights=np.ones(3)),
+        dict(fixed=np.ones(lat.shape, bool)),
+        dict(constraints=[(0, mesh.vertices[0]), (0, mesh.vertices[0])], preserve_volume=False),
+        dict(constraints=[(10 ** 6, [0, 0, 0])]),
+        dict(constraints=[(0, mesh.vertices[0] + 0.1)], axes="x"),
+        dict(constraints=[([9.0, 9.0, 9.0], [0, 0, 0])]),
+        dict(target_volume=np.inf),
+        dict(method="bogus"),
+    ]
+    for kw in cases:
+        a, b = _error(lambda: cpu.deform(**kw)), _error(lambda: gpu.deform(**kw))
+        assert a is not None, kw
+        assert a == b, kw
+    with pytest.raises(vpffd.InvalidInputError) as e:
+        gpu.deform(constraints=[(i, mesh.vertices[i]) for i in range(40)])
+    assert "at most 31" in str(e.value)
+
+
+def test_open_mesh():
+    mesh = vpffd.shapes.icosphere(2)
+    keep = mesh.vertices[mesh.faces].mean(axis=1)[:, 2] < 0.7
+    open_mesh = vpffd.Mesh(mesh.vertices, mesh.faces[keep])
+    lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5))
+    cpu, gpu = pair(open_mesh, lat)
+    P = edit(lat)
+    assert _error(lambda: cpu.deform(P)) == _error(lambda: gpu.deform(P))
+    with pytest.warns(UserWarning):
+        c = cpu.deform(P, allow_open=True)
+    with pytest.warns(UserWarning):
+        g = gpu.deform(P, allow_open=True)
+    assert_close(g, c, lat)
+    c, g = cpu.deform(P, preserve_volume=False), gpu.deform(P, preserve_volume=False)
+    assert np.isnan(c.volume) and np.isnan(g.volume)
+
+
+def test_device_selection_and_listing(monkeypatch):
+    devs = vpffd.vulkan_devices()
+    assert devs and all({"name", "type", "memory_bytes", "float64", "suitable"} <= set(d) for d in devs)
+    mesh = vpffd.shapes.icosphere(1)
+    lat = vpffd.Lattice.around(mesh, shape=4, degree=2)
+    with pytest.raises(vpffd.BackendUnavailableError, match="no device matches 'no-such-gpu'"):
+        vpffd.Deformer(mesh, lat, backend="vulkan", device="no-such-gpu")
+    with pytest.raises(vpffd.BackendUnavailableError, match="out of range"):
+        vpffd.Deformer(mesh, lat, backend="vulkan", device=99)
+    by_name = vpffd.Deformer(mesh, lat, backend="vulkan", device=DEVICE["name"][:5])
+    assert by_name.device["name"] == DEVICE["name"]
+    hardware = any(d["suitable"] and d["type"] != "cpu" for d in devs)
+    monkeypatch.delenv("VPFFD_VULKAN_DEVICE", raising=False)
+    assert (vpffd.Deformer(mesh, lat).backend == "vulkan") == hardware
+    monkeypatch.setenv("VPFFD_VULKAN_DEVICE", SEL)
+    assert vpffd.Deformer(mesh, lat).backend == "vulkan"
+    assert "vulkan" in vpffd.available_backends()
+
+
+def test_import_without_driver(tmp_path):
+    code = ("import vpffd\n"
+            "assert vpffd.vulkan_devices() == []\n"
+            "m = vpffd.shapes.icosphere(1); lat = vpffd.Lattice.around(m, shape=4)\n"
+            "assert vpffd.Deformer(m, lat).backend != 'vulkan'\n"
+            "try:\n    vpffd.Deformer(m, lat, backend='vulkan')\n"
+            "except vpffd.BackendUnavailableError as e:\n    print('ERR', e)\n")
+    env = dict(os.environ, VK_DRIVER_FILES=str(tmp_path / "none.json"), VK_ICD_FILENAMES=str(tmp_path / "none.json"))
+    env.pop("VPFFD_VULKAN_DEVICE", None)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert "ERR vulkan:" in out.stdout and "driver" in out.stdout
