@@ -309,6 +309,11 @@ class Deformer:
             tv = float(target_volume)
             if not np.isfinite(tv):
                 raise InvalidInputError(f"target_volume: expected a finite number, got {target_volume}")
+        if preserve_volume and not allow_open and not self._d.is_closed:
+            # The whole defect report says what to repair, not just the first problem found.
+            raise InvalidInputError(
+                "deform: the mesh does not bound a volume, so it cannot be preserved "
+                f"(pass allow_open=True to keep the cone volume from the lattice centre):\n{self.mesh.check()}")
         if allow_open and preserve_volume and not self._d.is_closed:
             warnings.warn("deform: the mesh is not closed; the volume kept is that of the cone from the lattice "
                           "centre, which depends on where that centre is", stacklevel=2)

@@ -32,6 +32,20 @@ inline RowMatrixX3d ffd_points(const Lattice& L, const Eigen::Ref<const RowMatri
                                const Eigen::Ref<const RowMatrixX3d>& X, OutsidePolicy policy = OutsidePolicy::Error,
                                int threads = 0);
 
+/// What a frame's options amount to, checked: shared by the CPU and GPU paths so
+/// both accept and refuse exactly the same input.
+struct FramePlan {
+  bool correcting = false;    ///< volume or constraints to correct
+  bool measure = false;       ///< the volume is defined (closed mesh, or allow_open)
+  double target = 0;          ///< target volume
+  VectorXd inv_weight;        ///< N: 1 / weight, 0 for fixed control points
+  Embedding sources;          ///< the constraint points embedded in the lattice
+  std::vector<SparseVec> rows;  ///< per constraint: its basis row (control index, value)
+};
+
+/// r . x for a sparse row r.
+inline double row_dot(const SparseVec& r, const Eigen::Ref<const VectorXd>& x);
+
 class Deformer {
  public:
   /// Embeds the mesh (V, F) in lattice L.
@@ -129,6 +143,10 @@ class Deformer {
   /// @throws InvalidInputError for bad options, SolverError when no correction exists
   DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
 
+  /// Checks P and `opt` and prepares what any backend needs for the frame.
+  /// @throws InvalidInputError with the same messages as deform()
+  FramePlan plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
+
  private:
   void check_control_points(const Eigen::Ref<const RowMatrixX3d>& P, const char* where) const {
     VPFFD_CHECK(P.rows() == n_control_points(), where, ": ", P.rows(), " control points, the lattice has ",
@@ -197,94 +215,102 @@ inline RowMatrixX3d ffd_points(const Lattice& L, const Eigen::Ref<const RowMatri
   return out;
 }
 
-inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
+inline double row_dot(const SparseVec& r, const Eigen::Ref<const VectorXd>& x) {
+  double s = 0;
+  for (size_t q = 0; q < r.index.size(); ++q) s += r.value[q] * x[r.index[q]];
+  return s;
+}
+
+inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
   static const char axis_name[3] = {'x', 'y', 'z'};
   const Index N = n_control_points();
-  const int threads = opt.threads;
   check_control_points(P, "deform");
-
-  // --- options ---------------------------------------------------------------
-  const bool correcting = opt.preserve_volume || !opt.constraints.empty();
-  if (correcting) VPFFD_CHECK(!opt.axes.empty(), "deform: axes is empty; name at least one of x, y, z");
+  FramePlan plan;
+  plan.correcting = opt.preserve_volume || !opt.constraints.empty();
+  if (plan.correcting) VPFFD_CHECK(!opt.axes.empty(), "deform: axes is empty; name at least one of x, y, z");
   VPFFD_CHECK(opt.rounds >= 1 && opt.rounds <= 64, "deform: rounds is ", opt.rounds, "; expected 1..64");
   for (int a : opt.axes) VPFFD_CHECK(a >= 0 && a < 3, "deform: axis ", a, " not in 0..2");
-  VectorXd inv_weight = VectorXd::Ones(N);
+  plan.inv_weight = VectorXd::Ones(N);
   if (opt.weights.size() > 0) {
     VPFFD_CHECK(opt.weights.size() == N, "deform: ", opt.weights.size(), " weights, expected one per control point (",
                 N, ")");
     for (Index c = 0; c < N; ++c)
       VPFFD_CHECK(std::isfinite(opt.weights[c]) && opt.weights[c] > 0, "deform: weight ", c, " is ", opt.weights[c],
                   "; weights must be finite and positive (use fixed= to pin control points)");
-    inv_weight = opt.weights.cwiseInverse();
+    plan.inv_weight = opt.weights.cwiseInverse();
   }
   if (!opt.fixed.empty()) {
     VPFFD_CHECK(Index(opt.fixed.size()) == N, "deform: fixed has ", opt.fixed.size(),
                 " entries, expected one per control point (", N, ")");
     for (Index c = 0; c < N; ++c)
-      if (opt.fixed[c]) inv_weight[c] = 0.0;
+      if (opt.fixed[c]) plan.inv_weight[c] = 0.0;
   }
   if (opt.preserve_volume && !opt.allow_open) require_closed(edges_, "deform(preserve_volume=True)");
-  const bool measure = is_closed() || opt.allow_open;
-  const double target = std::isnan(opt.target_volume) ? rest_volume_ : opt.target_volume;
-  VPFFD_CHECK(std::isfinite(target), "deform: target_volume is ", target, "; expected a finite number");
+  plan.measure = is_closed() || opt.allow_open;
+  plan.target = std::isnan(opt.target_volume) ? rest_volume_ : opt.target_volume;
+  VPFFD_CHECK(std::isfinite(plan.target), "deform: target_volume is ", plan.target, "; expected a finite number");
 
   // Constraint sources: basis rows at their parameters.
   const size_t nc = opt.constraints.size();
-  std::vector<SparseVec> rows(nc);
-  {
-    RowMatrixX3d pts(static_cast<Index>(nc), 3);
-    for (size_t s = 0; s < nc; ++s) {
-      const PointConstraint& pc = opt.constraints[s];
-      VPFFD_CHECK(pc.target.allFinite(), "deform: constraint ", s, " has a non-finite target");
-      if (pc.vertex >= 0) {
-        VPFFD_CHECK(pc.vertex < n_vertices(), "deform: constraint ", s, " names vertex ", pc.vertex, ", but there are ",
-                    n_vertices(), " vertices");
-        pts.row(s) = V_.row(pc.vertex);
-      } else {
-        VPFFD_CHECK(pc.point.allFinite(), "deform: constraint ", s, " has a non-finite source point");
-        pts.row(s) = pc.point.transpose();
-      }
-    }
-    const Embedding Ec = embed(lattice_, pts, policy_, 1, "constraint point");
-    const int per = tables_.order[0] * tables_.order[1] * tables_.order[2];
-    for (size_t s = 0; s < nc; ++s) {
-      rows[s].index.resize(per);
-      rows[s].value.resize(per);
-      point_basis_entries(tables_, Ec, static_cast<Index>(s), rows[s].index.data(), rows[s].value.data());
+  plan.rows.resize(nc);
+  RowMatrixX3d pts(static_cast<Index>(nc), 3);
+  for (size_t s = 0; s < nc; ++s) {
+    const PointConstraint& pc = opt.constraints[s];
+    VPFFD_CHECK(pc.target.allFinite(), "deform: constraint ", s, " has a non-finite target");
+    if (pc.vertex >= 0) {
+      VPFFD_CHECK(pc.vertex < n_vertices(), "deform: constraint ", s, " names vertex ", pc.vertex, ", but there are ",
+                  n_vertices(), " vertices");
+      pts.row(s) = V_.row(pc.vertex);
+    } else {
+      VPFFD_CHECK(pc.point.allFinite(), "deform: constraint ", s, " has a non-finite source point");
+      pts.row(s) = pc.point.transpose();
     }
   }
-  auto row_dot = [&](const SparseVec& r, const Eigen::Ref<const VectorXd>& x) {
-    double s = 0;
-    for (size_t q = 0; q < r.index.size(); ++q) s += r.value[q] * x[r.index[q]];
-    return s;
-  };
+  plan.sources = embed(lattice_, pts, policy_, 1, "constraint point");
+  const int per = tables_.order[0] * tables_.order[1] * tables_.order[2];
+  for (size_t s = 0; s < nc; ++s) {
+    plan.rows[s].index.resize(per);
+    plan.rows[s].value.resize(per);
+    point_basis_entries(tables_, plan.sources, static_cast<Index>(s), plan.rows[s].index.data(),
+                        plan.rows[s].value.data());
+  }
+
+  // A constraint along an axis that is not corrected could only be met by luck.
+  bool corrected[3] = {false, false, false};
+  for (int a : opt.axes) corrected[a] = plan.correcting;
+  const double diag = (lattice_.box_max - lattice_.box_min).norm();
+  for (size_t s = 0; s < nc; ++s)
+    for (int a = 0; a < 3; ++a)
+      if (!corrected[a]) {
+        const double S = row_dot(plan.rows[s], P.col(a));
+        VPFFD_CHECK(std::abs(S - opt.constraints[s].target[a]) <= 1e-9 * diag, "deform: constraint ", s,
+                    " moves its point along ", axis_name[a], " (from ", S, " to ", opt.constraints[s].target[a],
+                    "), but ", axis_name[a], " is not among the corrected axes");
+      }
+  return plan;
+}
+
+inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
+  static const char axis_name[3] = {'x', 'y', 'z'};
+  const Index N = n_control_points();
+  const int threads = opt.threads;
+  const FramePlan pl = plan(P, opt);
+  const size_t nc = opt.constraints.size();
+  const std::vector<SparseVec>& rows = pl.rows;
 
   // --- plain FFD -------------------------------------------------------------
   DeformResult res;
-  res.target_volume = opt.preserve_volume ? target : std::numeric_limits<double>::quiet_NaN();
+  res.target_volume = opt.preserve_volume ? pl.target : std::numeric_limits<double>::quiet_NaN();
   res.vertices.resize(n_vertices(), 3);
   double* X = res.vertices.data();
   eval_ffd(P, X, threads);
   res.offsets = RowMatrixX3d::Zero(N, 3);
   // With a volume correction the first axis step measures the plain FFD's volume anyway.
-  if (measure && !(opt.preserve_volume && !opt.axes.empty()))
+  if (pl.measure && !(opt.preserve_volume && !opt.axes.empty()))
     res.volume_before = signed_volume(X, F_, origin_, threads);
 
-  // A constraint along an axis that is not corrected could only be met by luck.
-  std::vector<bool> corrected(3, false);
-  for (int a : opt.axes) corrected[a] = correcting;
-  const double diag = (lattice_.box_max - lattice_.box_min).norm();
-  for (size_t s = 0; s < nc; ++s)
-    for (int a = 0; a < 3; ++a)
-      if (!corrected[a]) {
-        const double S = row_dot(rows[s], P.col(a));
-        VPFFD_CHECK(std::abs(S - opt.constraints[s].target[a]) <= 1e-9 * diag, "deform: constraint ", s,
-                    " moves its point along ", axis_name[a], " (from ", S, " to ", opt.constraints[s].target[a],
-                    "), but ", axis_name[a], " is not among the corrected axes");
-      }
-
   // --- axis steps -------------------------------------------------------------
-  if (correcting) {
+  if (pl.correcting) {
     const int naxes = static_cast<int>(opt.axes.size());
     const int k = naxes * opt.rounds;
     for (int step = 0; step < k; ++step) {
@@ -297,14 +323,14 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
         info.volume_before = co.volume;
         if (step == 0) res.volume_before = co.volume;
         // Equal shares of what is still missing: after the last axis the volume is the target.
-        info.share = (target - co.volume) / (k - step);
+        info.share = (pl.target - co.volume) / (k - step);
       }
       std::vector<double> rhs(nc);
       // Where the constraint point is now along a: earlier rounds may have moved it.
       const VectorXd Pa = P.col(a) + res.offsets.col(a);
       for (size_t s = 0; s < nc; ++s) rhs[s] = opt.constraints[s].target[a] - row_dot(rows[s], Pa);
       const VectorXd delta = solve_axis_offsets(opt.preserve_volume ? &co.alpha : nullptr, info.share, rows, rhs,
-                                                inv_weight, axis_name[a], &info.sum_squares);
+                                                pl.inv_weight, axis_name[a], &info.sum_squares);
       info.max_offset = delta.cwiseAbs().maxCoeff();
       res.offsets.col(a) += delta;
       gather(delta, X, a, threads);
@@ -312,7 +338,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     }
   }
   res.control_points = P + res.offsets;
-  if (measure) res.volume = signed_volume(X, F_, origin_, threads);
+  if (pl.measure) res.volume = signed_volume(X, F_, origin_, threads);
   for (size_t s = 0; s < nc; ++s)
     for (int a = 0; a < 3; ++a)
       res.constraint_error = std::max(res.constraint_error, std::abs(row_dot(rows[s], res.control_points.col(a)) -
