@@ -8,8 +8,9 @@ cmake -S . -B build/ctest -G Ninja -DVPFFD_BUILD_TESTS=ON -DVPFFD_BUILD_PYTHON=O
 cmake --build build/ctest -j 2
 (cd build/ctest && ctest --output-on-failure -j 2)
 # The installed CMake package works from another project.
+echo "test: installing the CMake package and building examples/cpp against it"
 cmake --install build/ctest --prefix build/install >/dev/null
-cmake -S examples/cpp -B build/example -G Ninja -DCMAKE_PREFIX_PATH="$PWD/build/install" >/dev/null
-cmake --build build/example >/dev/null
+cmake -S examples/cpp -B build/example -G Ninja -DCMAKE_PREFIX_PATH="$PWD/build/install" --log-level=WARNING
+cmake --build build/example
 build/example/squash_sphere
 python -m pytest tests/python -q "$@"
