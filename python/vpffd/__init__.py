@@ -7,9 +7,17 @@
 >>> abs(r.volume - mesh.volume) < 1e-12 * mesh.volume
 True
 """
+import os as _os
+
 from ._cpu import check_isa as _check_isa
 
 _check_isa()
+# libgomp's default lets idle threads spin at every barrier; on a machine whose
+# cores are shared (laptops, CI, notebooks next to a compiler) a spinning team
+# then waits a scheduler tick (4 ms) per parallel region, several times a frame.
+# Sleeping waits cost microseconds instead. Read once, when _core loads libgomp;
+# a value the user set is kept.
+_os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 from . import _core  # noqa: E402
 from ._core import (BackendUnavailableError, DeviceError, InvalidInputError, MeshIOError,  # noqa: F401
                     SolverError)

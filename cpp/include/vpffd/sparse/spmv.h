@@ -18,7 +18,7 @@ inline void spmv(const CsrMatrix& A, const double* x, double* y, int threads = 0
 #ifdef _OPENMP
   // Rows of the paper's matrix differ a lot in length (boundary control points
   // touch few faces): dynamic scheduling balances them without changing sums.
-#pragma omp parallel for schedule(dynamic, 16) num_threads(threads) if (threads > 1)
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads) if (threads > 1 && A.nnz() >= kParallelMin)
 #endif
   for (Index r = 0; r < A.rows; ++r) {
     double s = 0;
