@@ -13,8 +13,23 @@ the device (a renderer's case). CPU times are the OpenMP backend.
     python bench/python/bench_gpu.py --max-vertices 50000 --repeats 3
     VPFFD_VULKAN_DEVICE=llvmpipe python bench/python/bench_gpu.py
 
+Scaling (--scaling): icospheres built in code, subdivision 5 (20 k triangles) up
+to --max-subdiv (default 9: 5.2 M triangles; 10: 21 M triangles, about 5-10 GB of
+host memory and 1-2 GB of GPU memory), and the time per xyz frame against the
+number of triangles, with a least-squares line t = a + b * faces and each size's
+time per triangle: a GPU frame should grow linearly once the fixed cost a is
+amortised. On lavapipe keep to --max-subdiv 8 (1.3 M triangles, seconds a frame).
+
+    python bench/python/bench_gpu.py --scaling                 # up to 5.2 M triangles
+    python bench/python/bench_gpu.py --scaling --max-subdiv 10 --repeats 5 --no-cpu
+
+On a GPU machine without internet (Python 3.12, CMake, pybind11 and
+scikit-build-core installed) the module is built from this tree with carried
+Debian packages: see bench/README.md.
+
 On lavapipe (the CPU Vulkan driver) only correctness counts: its table is printed
-too, but says nothing about GPU speed. Results go to bench/results/gpu_<device>.csv/.json.
+too, but says nothing about GPU speed. Results go to bench/results/gpu_<device>.csv/.json
+(--scaling: gpu_scaling_<device>.csv/.json).
 """
 from __future__ import annotations
 
@@ -133,6 +148,67 @@ def bench_mesh(name, mesh, args):
     return row
 
 
+def bench_scaling(args, device):
+    """Time per xyz frame against triangles on subdivided icospheres."""
+    rows = []
+    r = args.repeats
+    for s in range(5, args.max_subdiv + 1):
+        faces = 20 * 4 ** s
+        print(f"icosphere({s}): {faces} triangles ...", file=sys.stderr, flush=True)
+        t0 = time.perf_counter()
+        mesh = vpffd.shapes.icosphere(s)
+        lat = vpffd.Lattice.around(mesh, shape=args.shape, degree=args.degree)
+        P = edit(lat)
+        Pflat = np.ascontiguousarray(P.reshape(-1, 3))
+        gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=args.device)
+        setup_s = time.perf_counter() - t0
+        first = gpu.deform(P)  # shader JIT, first touch
+        gt, kept, e2e = [], [], []
+        for _ in range(r):
+            t0 = time.perf_counter()
+            gpu._vk.deform(Pflat, read_vertices=False)
+            kept.append((time.perf_counter() - t0) * 1e3)
+            gt.append(gpu.last_timings())
+        for _ in range(max(1, r // 2)):
+            t0 = time.perf_counter()
+            gpu.deform(P)
+            e2e.append((time.perf_counter() - t0) * 1e3)
+        med = statistics.median
+        row = dict(subdiv=s, vertices=mesh.n_vertices, faces=faces, setup_s=setup_s,
+                   gpu_xyz_ms=med(t["gpu_total_ms"] for t in gt), gpu_ffd_ms=med(t["gpu_ffd_ms"] for t in gt),
+                   gpu_step_ms=med(statistics.mean(t["gpu_steps_ms"]) for t in gt),
+                   gpu_xyz_kept_ms=med(kept), gpu_xyz_e2e_ms=med(e2e),
+                   volume_error_gpu=abs(first.volume - first.target_volume) / abs(first.target_volume))
+        row["ns_per_face"] = row["gpu_xyz_ms"] * 1e6 / faces
+        if args.cpu:
+            cpu = gpu._d  # the CPU core of the same mesh (all OpenMP threads), no second embedding
+            cpu.deform(Pflat)
+            row["cpu_xyz_ms"] = median_ms(lambda: cpu.deform(Pflat), max(1, r // 2))
+        rows.append(row)
+        del gpu, mesh
+    # t = a + b * faces over the sizes where the fixed cost no longer dominates.
+    big = [x for x in rows if x["faces"] >= 300_000] or rows
+    if len(big) >= 2:
+        b, a = np.polyfit([x["faces"] for x in big], [x["gpu_xyz_ms"] for x in big], 1)
+    else:
+        a, b = 0.0, big[0]["gpu_xyz_ms"] / big[0]["faces"]
+    cols = [("subdiv", "{}"), ("vertices", "{}"), ("faces", "{}"), ("gpu_xyz_ms", "{:.3f}"),
+            ("gpu_ffd_ms", "{:.3f}"), ("gpu_step_ms", "{:.3f}"), ("gpu_xyz_kept_ms", "{:.3f}"),
+            ("gpu_xyz_e2e_ms", "{:.3f}"), ("ns_per_face", "{:.3f}")] + \
+        ([("cpu_xyz_ms", "{:.2f}")] if args.cpu else []) + [("volume_error_gpu", "{:.1e}"), ("setup_s", "{:.1f}")]
+    print(f"\nScaling (ms per xyz frame, medians of {r}) on {device['name']} ({device['type']}), "
+          f"{args.shape}^3 lattice of degree {args.degree}")
+    cells = [[fmt.format(x[k]) for k, fmt in cols] for x in rows]
+    width = [max(len(k), *(len(c[i]) for c in cells)) for i, (k, _) in enumerate(cols)]
+    print("  ".join(k.rjust(w) for (k, _), w in zip(cols, width)))
+    for c in cells:
+        print("  ".join(v.rjust(w) for v, w in zip(c, width)))
+    print(f"fit over >= 300k triangles: gpu_xyz_ms = {a:.3f} + {b * 1e6:.3f} ms per million triangles")
+    if device["type"] == "cpu":
+        print("(a software Vulkan device: these GPU times only show that the path runs, not GPU speed)")
+    return rows, dict(fixed_ms=a, ms_per_million_faces=b * 1e6)
+
+
 COLUMNS = [("model", "model", "{}"), ("vertices", "vertices", "{}"), ("gpu_ffd_ms", "GPU FFD", "{:.2f}"),
            ("cpu_vol_x_ms", "CPU VOL(x)", "{:.2f}"), ("gpu_vol_x_ms", "GPU VOL(x)", "{:.2f}"),
            ("cpu_xyz_ms", "CPU xyz", "{:.2f}"), ("gpu_xyz_ms", "GPU xyz", "{:.2f}"),
@@ -163,20 +239,38 @@ def main(argv=None):
     ap.add_argument("--device", default=os.environ.get("VPFFD_VULKAN_DEVICE", ""),
                     help="Vulkan device index or name part (default: VPFFD_VULKAN_DEVICE, else the first suitable)")
     ap.add_argument("--out", default=str(ROOT / "bench" / "results"))
+    ap.add_argument("--scaling", action="store_true",
+                    help="time per frame against triangles on icospheres built in code (see above)")
+    ap.add_argument("--max-subdiv", type=int, default=9,
+                    help="--scaling: largest icosphere subdivision (9: 5.2 M triangles, 10: 21 M)")
+    ap.add_argument("--no-cpu", dest="cpu", action="store_false", help="--scaling: skip the CPU frame times")
     args = ap.parse_args(argv)
     if not vpffd._core.has_vulkan:
         sys.exit("bench_gpu: this vpffd build has no Vulkan backend")
     probe = vpffd.Deformer(vpffd.shapes.icosphere(1), vpffd.Lattice.around(vpffd.shapes.icosphere(1), shape=4),
                            backend="vulkan", device=args.device)
     device = probe.device
+    slug = re.sub(r"[^A-Za-z0-9]+", "_", device["name"]).strip("_").lower()
+    out = Path(args.out)
+    if args.scaling:
+        rows, fit = bench_scaling(args, device)
+        out.mkdir(parents=True, exist_ok=True)
+        with open(out / f"gpu_scaling_{slug}.csv", "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        meta = dict(device=device, cpu=platform.processor(), cores=os.cpu_count(), python=platform.python_version(),
+                    vpffd=vpffd.__version__, shape=args.shape, degree=args.degree, repeats=args.repeats, fit=fit,
+                    rows=rows)
+        (out / f"gpu_scaling_{slug}.json").write_text(json.dumps(meta, indent=1))
+        print(f"wrote {out / f'gpu_scaling_{slug}.csv'} and .json", file=sys.stderr)
+        return
     rows = []
     for name, mesh in meshes(args.max_vertices):
         print(f"{name}: {mesh.n_vertices} vertices ...", file=sys.stderr, flush=True)
         rows.append(bench_mesh(name, mesh, args))
     print_table(rows, device)
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    slug = re.sub(r"[^A-Za-z0-9]+", "_", device["name"]).strip("_").lower()
     with open(out / f"gpu_{slug}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]) if rows else ["model"])
         w.writeheader()

@@ -18,6 +18,15 @@ BackendUnavailableError = _core.BackendUnavailableError
 _CPU_BACKENDS = ("serial", "openmp")
 _VULKAN_ENV = "VPFFD_VULKAN_DEVICE"
 _TYPE_RANK = {"discrete": 0, "integrated": 1, "virtual": 2, "other": 3, "cpu": 4}
+# backend="auto" takes a GPU from this many vertices on. A GPU frame has a fixed
+# cost the CPU does not: one submission and fence wait, ~4 dispatches per axis step
+# with barriers, the vertex read-back and its reordering to the input order, about
+# 0.3-1 ms in all; the CPU's xyz frame costs about 0.1 us per vertex here (2 cores:
+# 0.9 ms for 10k vertices, 5 ms for 43k), less on a many-core machine. Below ~20k
+# vertices the GPU cannot win by much, and the device start-up (instance, device,
+# shader compilation: 50-200 ms) is not worth paying. Naming a device
+# (device= or VPFFD_VULKAN_DEVICE) takes it whatever the size.
+AUTO_GPU_MIN_VERTICES = 20_000
 
 
 def vulkan_devices() -> list:
@@ -55,8 +64,9 @@ def available_backends() -> list:
     return out
 
 
-def _resolve_backend(backend: str, threads, device=None):
-    """(backend, threads for the CPU core, Vulkan device selector or None)."""
+def _resolve_backend(backend: str, threads, device=None, n_vertices=None):
+    """(backend, threads for the CPU core, Vulkan device selector or None).
+    ``n_vertices``: the mesh size "auto" weighs (None: any size)."""
     if not isinstance(backend, str):
         raise TypeError(f"backend: expected a string, got {type(backend).__name__}")
     if device is not None and not isinstance(device, (str, int, np.integer)) or isinstance(device, bool):
@@ -64,11 +74,15 @@ def _resolve_backend(backend: str, threads, device=None):
     selector = None if device is None else str(device)
     env = os.environ.get(_VULKAN_ENV) or None
     if backend == "auto":
-        # A GPU when there is one; a software device only when named.
-        if getattr(_core, "has_vulkan", False) and (selector or env):
+        # A GPU when there is one and the mesh is large enough (size first: listing the
+        # devices starts Vulkan); a software device only when named.
+        large = n_vertices is None or n_vertices >= AUTO_GPU_MIN_VERTICES
+        has_vulkan = getattr(_core, "has_vulkan", False)
+        gpu = _hardware_vulkan_device() if has_vulkan and large and not (selector or env) else None
+        if has_vulkan and (selector or env):
             backend = "vulkan"
-        elif getattr(_core, "has_vulkan", False) and _hardware_vulkan_device() is not None:
-            backend, selector = "vulkan", _hardware_vulkan_device()
+        elif gpu is not None:
+            backend, selector = "vulkan", gpu
         else:
             backend = "openmp" if _core.has_openmp() and (os.cpu_count() or 1) > 1 else "serial"
     if backend not in (*_CPU_BACKENDS, "vulkan"):
@@ -147,11 +161,13 @@ class Deformer:
     lattice : Lattice
         its box must contain the mesh (see ``outside``).
     backend : {"auto", "openmp", "serial", "vulkan"}
-        "auto" takes a GPU through Vulkan when there is one, else the CPU;
-        ``available_backends()`` lists them. "vulkan" runs every frame on the
-        device (float32 positions, float64 sums: vertices within ~1e-7 of the
-        lattice size of the CPU's, volume exact to ~1e-9) and raises
-        BackendUnavailableError saying why when there is no suitable device.
+        "auto" takes a GPU through Vulkan when there is one and the mesh has at
+        least ``AUTO_GPU_MIN_VERTICES`` (20,000) vertices, else the CPU (a named
+        ``device`` is always used); ``available_backends()`` lists them.
+        "vulkan" runs every frame on the device (float32 positions, float64 sums:
+        vertices within ~1e-7 of the lattice size of the CPU's, volume exact to
+        ~1e-9) and raises BackendUnavailableError saying why when there is no
+        suitable device.
     outside : {"error", "extrapolate"}
         vertices outside the lattice box raise (default) or follow the boundary
         polynomial pieces.
@@ -169,7 +185,7 @@ class Deformer:
             raise TypeError(f"lattice: expected a vpffd.Lattice, got {type(lattice).__name__}")
         self.mesh = Mesh.from_any(mesh)
         self.lattice = lattice
-        self.backend, self._threads, selector = _resolve_backend(backend, threads, device)
+        self.backend, self._threads, selector = _resolve_backend(backend, threads, device, self.mesh.n_vertices)
         self._vk = None
         if self.backend == "vulkan":
             try:
@@ -318,12 +334,7 @@ class Deformer:
             warnings.warn("deform: the mesh is not closed; the volume kept is that of the cone from the lattice "
                           "centre, which depends on where that centre is", stacklevel=2)
         args = (P, bool(preserve_volume), axes, w, fx, cons, tv, method, self._threads, bool(allow_open))
-        if self._vk is not None:
-            if rounds != 1:
-                raise InvalidInputError("rounds: the vulkan backend runs the paper's single round (rounds=1)")
-            r = self._vk.deform(*args)
-        else:
-            r = self._d.deform(*args, int(rounds))
+        r = (self._vk if self._vk is not None else self._d).deform(*args, int(rounds))
         rest = self._d.rest_volume(True) if (self._d.is_closed or allow_open) else float("nan")
         return DeformResult(
             vertices=r["vertices"],

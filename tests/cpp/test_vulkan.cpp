@@ -108,6 +108,32 @@ TEST(Vulkan, WeightsFixedConstraintsAndDegrees) {
   }
 }
 
+TEST(Vulkan, RoundsAndManyConstraints) {
+  REQUIRE_DEVICE();
+  Scene s = sphere(3, 3, {6, 6, 6});
+  Deformer cpu(s.V, s.F, s.L);
+  vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+  const RowMatrixX3d P = edit(s.L);
+  const RowMatrixX3d X = cpu.ffd(P);
+  CorrectionOptions o;
+  o.rounds = 3;
+  for (Index v = 0; v < s.V.rows() && o.constraints.size() < 60; v += 10) {
+    PointConstraint pc;
+    pc.vertex = v;
+    pc.target = X.row(v).transpose() + Vector3d(0.01, -0.005, 0.008) * std::sin(double(v));
+    o.constraints.push_back(pc);
+  }
+  ASSERT_EQ(o.constraints.size(), 60u);  // more than the old device limit of 31
+  for (bool volume : {true, false}) {
+    o.preserve_volume = volume;
+    const DeformResult c = cpu.deform(P, o), g = gpu.deform(P, o);
+    SCOPED_TRACE(volume);
+    expect_close(g, c, s.L);
+    EXPECT_LE(g.constraint_error, 1e-9);
+    EXPECT_LE((g.offsets - c.offsets).cwiseAbs().maxCoeff(), 1e-4 * c.offsets.cwiseAbs().maxCoeff());
+  }
+}
+
 TEST(Vulkan, SameErrorsAsCpu) {
   REQUIRE_DEVICE();
   // A small sphere in a big lattice: the corner control point does not touch it.

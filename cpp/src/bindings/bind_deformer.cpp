@@ -50,12 +50,12 @@ void bind_deformer(py::module_& m) {
       .def(
           "face_matrix",
           [](const Deformer& d, int threads) {
-            const CsrMatrix* A;
+            CsrMatrix A;
             {
               py::gil_scoped_release release;
-              A = &d.face_matrix(threads);
+              A = face_matrix_in_face_order(d, threads);
             }
-            return csr_copy_to_python(*A);
+            return csr_to_python(std::move(A));
           },
           py::arg("threads") = 0)
       .def(

@@ -81,14 +81,13 @@ void bind_vulkan(py::module_& m) {
                                const auto& o = d.vertex_order();
                                return py::array_t<std::int32_t>(static_cast<py::ssize_t>(o.size()), o.data());
                              })
-      .def_readonly_static("max_constraints", &VulkanDeformer::max_constraints)
       .def(
           "deform",
           [](VulkanDeformer& d, RefV P, bool preserve_volume, const std::string& axes,
              std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
              const std::vector<std::tuple<Index, Vector3d, Vector3d>>& constraints,
              std::optional<double> target_volume, const std::string& method, int threads, bool allow_open,
-             bool read_vertices) {
+             int rounds, bool read_vertices) {
             CorrectionOptions o;
             o.preserve_volume = preserve_volume;
             o.axes = parse_axes(axes);
@@ -99,6 +98,7 @@ void bind_vulkan(py::module_& m) {
             o.method = parse_method(method);
             o.threads = threads;
             o.allow_open = allow_open;
+            o.rounds = rounds;
             DeformResult r;
             {
               py::gil_scoped_release release;
@@ -110,7 +110,7 @@ void bind_vulkan(py::module_& m) {
           py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
           py::arg("constraints") = std::vector<std::tuple<Index, Vector3d, Vector3d>>{},
           py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0,
-          py::arg("allow_open") = false, py::arg("read_vertices") = true);
+          py::arg("allow_open") = false, py::arg("rounds") = 1, py::arg("read_vertices") = true);
 }
 
 }  // namespace vpffd::bindings

@@ -1,20 +1,29 @@
-// VulkanDeformer: one frame of volume-preserving FFD as one command buffer.
+// VulkanDeformer: one frame of volume-preserving FFD as one queue submission.
 //
 // Device data (all in the device's vertex order, vertices sorted by lattice cell):
 //   X (3V float, positions minus the origin), F (3F int), vertex-face adjacency,
 //   per vertex the first control point index and the local parameter per axis,
 //   the per-span power-form basis table, the tiles (runs of <= 64 vertices of one
 //   cell) and, per control point, the list of tile partials that touch it.
-// A frame records: upload copies -> FFD -> volume -> per axis step [coefficients ->
-// combine -> solve -> offsets -> max |offset| -> vertex update] -> volume -> copies
-// of the offsets and the scalars to the host. See shaders/common.glsl for the
-// precision and determinism rules.
+// A frame runs: upload copies -> FFD -> [volume] -> per axis step [coefficients ->
+// combine -> solve (offsets included) -> vertex update] -> volume -> copies of the
+// offsets, the step results and the volume partials to the host. See
+// shaders/common.glsl for the precision and determinism rules.
+//
+// The frame's command buffer depends only on the options' shape (which steps along
+// which axes, whether volumes are measured): it is recorded once per shape and
+// submitted again while only the control points, targets and weights change, which
+// live in buffers. Point constraints without a volume row do not depend on the mesh
+// at all, so the host solves them (exactly as the CPU backend, errors included) and
+// the device only applies the offsets.
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <numeric>
+
+#include <Eigen/Eigenvalues>
 
 #include "context.h"
 #include "vpffd/backend/vulkan.h"
@@ -36,44 +45,38 @@ const std::uint32_t kSpvCombine[] =
 const std::uint32_t kSpvSolve[] =
 #include "vpffd/shaders/solve.spv.inc"
     ;
-const std::uint32_t kSpvOffsets[] =
-#include "vpffd/shaders/offsets.spv.inc"
-    ;
 const std::uint32_t kSpvGather[] =
 #include "vpffd/shaders/gather.spv.inc"
     ;
 const std::uint32_t kSpvVolume[] =
 #include "vpffd/shaders/volume.spv.inc"
     ;
-const std::uint32_t kSpvReduce[] =
-#include "vpffd/shaders/reduce.spv.inc"
-    ;
 
-enum Pipe { kFfd, kCoef, kCombine, kSolve, kOffsets, kGather, kVolume, kReduce, kPipes };
+enum Pipe { kFfd, kCoef, kCombine, kSolve, kGather, kVolume, kPipes };
 struct Spv {
   const std::uint32_t* code;
   size_t bytes;
   const char* name;
 };
 const Spv kShaders[kPipes] = {
-    {kSpvFfd, sizeof(kSpvFfd), "ffd"},           {kSpvCoef, sizeof(kSpvCoef), "coef"},
+    {kSpvFfd, sizeof(kSpvFfd), "ffd"},         {kSpvCoef, sizeof(kSpvCoef), "coef"},
     {kSpvCombine, sizeof(kSpvCombine), "combine"}, {kSpvSolve, sizeof(kSpvSolve), "solve"},
-    {kSpvOffsets, sizeof(kSpvOffsets), "offsets"}, {kSpvGather, sizeof(kSpvGather), "gather"},
-    {kSpvVolume, sizeof(kSpvVolume), "volume"},  {kSpvReduce, sizeof(kSpvReduce), "reduce"},
+    {kSpvGather, sizeof(kSpvGather), "gather"},   {kSpvVolume, sizeof(kSpvVolume), "volume"},
 };
 
-// Frame parameter and stats layout: mirrors shaders/common.glsl.
-constexpr int KMAX = 6;
-constexpr int PD_TARGET = 0, PD_MAX_INVW = 1, PD_CONS = 8, PD_CONS_STRIDE = 3 * KMAX + 4;
-constexpr int PD_GCC = PD_CONS + 32 * PD_CONS_STRIDE, PD_SIZE = PD_GCC + 32 * 32;
-constexpr int PI_NC = 0, PI_CONS = 4, PI_SIZE = PI_CONS + 3 * 32;
-constexpr int ST_VOL_BEFORE = 0, ST_VOL = 1, ST_STEP = 8, ST_STEP_STRIDE = 8, ST_LAMBDA = 64,
-              ST_LAMBDA_STRIDE = 32, ST_SIZE = ST_LAMBDA + 3 * ST_LAMBDA_STRIDE;
-constexpr int kTile = 64;        // vertices per tile = coef.comp's workgroup size
-constexpr int kGroup = 256;      // workgroup size of the other passes
-constexpr std::uint32_t kMaxGroups = 1024;  // grid-stride passes: fixed reduction shape
-constexpr int kBindings = 20;
-constexpr std::uint32_t kQueries = 8;
+// Buffer layouts: mirror shaders/common.glsl.
+constexpr int FR_TARGET = 0, FR_MAX_INVW = 1, FR_HI = 2, FR_RHS = 8;
+constexpr int CI_NC = 0, CI_PTR = 1, CI_IDX = 2, CI_G = 3, CI_H = 4, CI_BASE = 8;
+constexpr int ST_STEP = 0, ST_STEP_STRIDE = 8;
+constexpr int kMaxRounds = 64;  // as Deformer::deform
+constexpr int kMaxSteps = 3 * kMaxRounds;
+constexpr int ST_SIZE = kMaxSteps * ST_STEP_STRIDE;
+constexpr int kTile = 64;                   // vertices per tile = coef.comp's workgroup size
+constexpr int kGroup = 256;                 // workgroup size of the other passes
+constexpr std::uint32_t kMaxGroups = 1024;  // grid-stride passes: fixed reduction shape (= RED_STRIDE)
+constexpr int kBindings = 22;
+constexpr std::uint32_t kQueries = 3 + kMaxSteps;
+constexpr size_t kMaxRecorded = 4;  // frame command buffers kept, one per options shape
 
 struct Push {
   std::int32_t axis = 0, step = 0, left = 1, flags = 0, slot = 0, count = 0;
@@ -86,6 +89,18 @@ std::uint32_t groups_for(std::int64_t n, std::uint32_t cap) {
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
+
+// What the device does in a frame, apart from the data: equal shapes share one recording.
+struct Shape {
+  enum Mode { Plain, DeviceSteps, HostOffsets };
+  Mode mode = Plain;
+  bool measure = false;      // closed mesh or allow_open: volumes are measured
+  bool open = false;         // cone weights in coef
+  std::vector<int> axes;     // DeviceSteps: the axis of every step; HostOffsets: the axes to apply
+  bool operator==(const Shape& o) const {
+    return mode == o.mode && measure == o.measure && open == o.open && axes == o.axes;
+  }
+};
 
 }  // namespace
 
@@ -101,12 +116,13 @@ struct VulkanDeformer::Impl {
   std::vector<std::int32_t> order;  // device vertex i is input vertex order[i]
   Vector3d origin;
 
+  // Order = binding numbers of shaders/common.glsl.
   enum Buf {
     bP, bX, bF, bAdjPtr, bAdj, bSpan, bTau, bPoly, bTiles, bPartial, bTileVol, bCombPtr, bComb, bAlpha, bInvW,
-    bDelta, bParD, bParI, bStats, bRed, kNumBuf
+    bDelta, bFrame, bConsI, bStats, bRed, bConsD, bWork, kNumBuf
   };
   Buffer buf[kNumBuf];
-  Buffer up_P, up_invw, up_par_d, up_par_i, rb_delta, rb_stats, rb_X;
+  Buffer up_P, up_invw, up_frame, up_delta, up_cons_i, up_cons_d, rb_delta, rb_stats, rb_red, rb_X;
 
   VkDescriptorSetLayout dsl = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
@@ -115,11 +131,31 @@ struct VulkanDeformer::Impl {
   VkShaderModule modules[kPipes] = {};
   VkPipeline pipes[kPipes] = {};
   VkCommandPool cmd_pool = VK_NULL_HANDLE;
-  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;  // one-time work: uploads, read-back of the vertices
   VkFence fence = VK_NULL_HANDLE;
   VkQueryPool queries = VK_NULL_HANDLE;
 
-  std::mutex frame_mutex;  // one frame or read-back at a time per deformer (shared command buffer)
+  struct Recorded {
+    Shape shape;
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    std::uint32_t n_steps = 0;  // timestamped steps
+    std::uint64_t last_use = 0;
+  };
+  std::vector<Recorded> recorded;
+  std::uint64_t frames = 0;
+
+  // The point constraints' block on the device (see solve.comp), kept while the
+  // constraint sources and the weights stay the same.
+  struct ConsBlock {
+    bool valid = false;
+    std::vector<std::int32_t> index;  // nc x KKK control point indices of the rows
+    std::vector<double> value;        // nc x KKK basis values
+    VectorXd inv_weight;
+    bool bad = false;  // a row that cannot move or dependent rows: the CPU's error applies
+    double hi = 1.0;   // largest eigenvalue of the unit-diagonal block (at least 1)
+  } cons;
+
+  std::mutex frame_mutex;  // one frame or read-back at a time per deformer
   bool pending = false;    // a submission whose fence was not waited for (after an error)
   VectorXd invw_uploaded;  // inverse weights on the device (empty: none yet)
   FrameTimings timings;
@@ -140,18 +176,19 @@ struct VulkanDeformer::Impl {
   }
 
   // ---- command helpers --------------------------------------------------------
-  void begin() {
-    detail::check(vkResetCommandBuffer(cmd, 0), "vkResetCommandBuffer");
+  void begin(VkCommandBuffer cb, bool once) {
+    detail::check(vkResetCommandBuffer(cb, 0), "vkResetCommandBuffer");
     VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    detail::check(vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer");
+    bi.flags = once ? VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT : 0;
+    detail::check(vkBeginCommandBuffer(cb, &bi), "vkBeginCommandBuffer");
   }
+  void begin() { begin(cmd, true); }
 
-  void submit_and_wait() {
-    detail::check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+  // Submits `cbs` (in order, one vkQueueSubmit) and waits.
+  void submit_and_wait(const VkCommandBuffer* cbs, std::uint32_t n) {
     VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-    si.commandBufferCount = 1;
-    si.pCommandBuffers = &cmd;
+    si.commandBufferCount = n;
+    si.pCommandBuffers = cbs;
     {
       std::lock_guard<std::mutex> lock(dev->queue_mutex);
       detail::check(vkQueueSubmit(dev->queue, 1, &si, fence), "vkQueueSubmit");
@@ -164,41 +201,87 @@ struct VulkanDeformer::Impl {
     pending = false;
     detail::check(vkResetFences(d, 1, &fence), "vkResetFences");
   }
+  void submit_and_wait() {
+    detail::check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+    submit_and_wait(&cmd, 1);
+  }
 
   // Everything before is visible to everything after (compute and transfer).
-  void barrier() {
+  static void barrier(VkCommandBuffer cb) {
     VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
     mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
     mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
                        VK_ACCESS_TRANSFER_WRITE_BIT;
     const VkPipelineStageFlags st = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT;
-    vkCmdPipelineBarrier(cmd, st, st, 0, 1, &mb, 0, nullptr, 0, nullptr);
+    vkCmdPipelineBarrier(cb, st, st, 0, 1, &mb, 0, nullptr, 0, nullptr);
   }
 
-  void dispatch(Pipe p, std::uint32_t groups, const Push& pc) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipes[p]);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &set, 0, nullptr);
-    vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &pc);
-    vkCmdDispatch(cmd, groups, 1, 1);
-    barrier();
+  // Copies to read-back buffers are visible to the host once the fence signals.
+  static void host_barrier(VkCommandBuffer cb) {
+    VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    mb.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    mb.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &mb, 0, nullptr, 0,
+                         nullptr);
   }
 
-  void copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes) {
+  void dispatch(VkCommandBuffer cb, Pipe p, std::uint32_t groups, const Push& pc) {
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipes[p]);
+    vkCmdPushConstants(cb, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &pc);
+    vkCmdDispatch(cb, groups, 1, 1);
+    barrier(cb);
+  }
+
+  static void copy(VkCommandBuffer cb, const Buffer& src, const Buffer& dst, VkDeviceSize bytes,
+                   VkDeviceSize src_offset = 0, VkDeviceSize dst_offset = 0) {
     if (bytes == 0) return;
-    VkBufferCopy c{0, 0, bytes};
-    vkCmdCopyBuffer(cmd, src.handle(), dst.handle(), 1, &c);
+    VkBufferCopy c{src_offset, dst_offset, bytes};
+    vkCmdCopyBuffer(cb, src.handle(), dst.handle(), 1, &c);
+  }
+  void copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes) { copy(cmd, src, dst, bytes); }
+
+  void timestamp(VkCommandBuffer cb, std::uint32_t i) {
+    if (dev->timestamps) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries, i);
   }
 
-  void timestamp(std::uint32_t i) {
-    if (dev->timestamps) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries, i);
+  // Binding i now names buf[i]: recorded frames referred to the old set contents.
+  void bind(int i) {
+    VkDescriptorBufferInfo info{buf[i].handle(), 0, VK_WHOLE_SIZE};
+    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    w.dstSet = set;
+    w.dstBinding = static_cast<std::uint32_t>(i);
+    w.descriptorCount = 1;
+    w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    w.pBufferInfo = &info;
+    vkUpdateDescriptorSets(d, 1, &w, 0, nullptr);
+    forget_recordings();
+  }
+
+  void forget_recordings() {
+    for (Recorded& r : recorded) vkFreeCommandBuffers(d, cmd_pool, 1, &r.cb);
+    recorded.clear();
+  }
+
+  // Device buffer i (and its upload buffer, when given) hold at least `bytes`.
+  void reserve(Buf i, Buffer* up, size_t bytes, const char* what) {
+    if (buf[i].handle() && buf[i].size() >= bytes) return;
+    const size_t cap = std::max<size_t>(bytes, 2 * buf[i].size());
+    buf[i] = Buffer(*dev, cap, Buffer::DeviceLocal, what);
+    if (up) *up = Buffer(*dev, cap, Buffer::Upload, what);
+    if (set) bind(i);
   }
 
   // ---- set-up ------------------------------------------------------------------
   void build(const std::string& selector);
-  void create_pipelines(const std::array<std::int32_t, 12>& spec);
+  void create_pipelines(const std::array<std::int32_t, 11>& spec);
+
+  // ---- frames --------------------------------------------------------------------
+  // Uploads the constraint block (into `cmd`, begun) when the rows or the weights changed.
+  bool update_constraints(const std::vector<SparseVec>& rows, const VectorXd& inv_weight);
+  const Recorded& frame_commands(const Shape& shape);
 };
 
-void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 12>& spec) {
+void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 11>& spec) {
   VkDescriptorSetLayoutBinding b[kBindings];
   for (int i = 0; i < kBindings; ++i)
     b[i] = {static_cast<std::uint32_t>(i), VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
@@ -238,9 +321,9 @@ void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 12>& 
   }
   vkUpdateDescriptorSets(d, kBindings, w, 0, nullptr);
 
-  VkSpecializationMapEntry entries[12];
-  for (std::uint32_t i = 0; i < 12; ++i) entries[i] = {i, i * 4u, 4};
-  VkSpecializationInfo si{12, entries, sizeof(spec), spec.data()};
+  VkSpecializationMapEntry entries[11];
+  for (std::uint32_t i = 0; i < 11; ++i) entries[i] = {i, i * 4u, 4};
+  VkSpecializationInfo si{11, entries, sizeof(spec), spec.data()};
   for (int p = 0; p < kPipes; ++p) {
     VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
     mi.codeSize = kShaders[p].bytes;
@@ -378,17 +461,19 @@ void VulkanDeformer::Impl::build(const std::string& selector) {
   mk(bComb, 4 * comb.size(), "combine lists");
   mk(bAlpha, 8 * N, "coefficients");
   mk(bInvW, 8 * N, "inverse weights");
-  mk(bDelta, 24 * N, "offsets");
-  mk(bParD, 8 * PD_SIZE, "frame parameters");
-  mk(bParI, 4 * PI_SIZE, "frame parameters");
+  mk(bDelta, 32 * N, "offsets");
   mk(bStats, 8 * ST_SIZE, "frame results");
-  mk(bRed, 8 * std::max<std::uint32_t>({g_face, g_cp, 1u}), "reductions");
+  mk(bRed, 16 * kMaxGroups, "volume partials");
+  reserve(bFrame, &up_frame, 8 * FR_RHS, "frame parameters");
+  reserve(bConsI, &up_cons_i, 4 * (CI_BASE + N + 1), "constraints");
+  reserve(bConsD, &up_cons_d, 8, "constraints");
+  reserve(bWork, nullptr, 8 * 6, "solve scratch");
   up_P = B(*dev, 12 * N, B::Upload, "control points (upload)");
   up_invw = B(*dev, 8 * N, B::Upload, "inverse weights (upload)");
-  up_par_d = B(*dev, 8 * PD_SIZE, B::Upload, "frame parameters (upload)");
-  up_par_i = B(*dev, 4 * PI_SIZE, B::Upload, "frame parameters (upload)");
+  up_delta = B(*dev, 24 * N, B::Upload, "offsets (upload)");
   rb_delta = B(*dev, 24 * N, B::Readback, "offsets (read-back)");
   rb_stats = B(*dev, 8 * ST_SIZE, B::Readback, "frame results (read-back)");
+  rb_red = B(*dev, 16 * kMaxGroups, B::Readback, "volume partials (read-back)");
 
   VkCommandPoolCreateInfo cpi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
   cpi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
@@ -429,12 +514,178 @@ void VulkanDeformer::Impl::build(const std::string& selector) {
   put(bComb, comb.data(), 4 * comb.size());
   submit_and_wait();
 
-  const std::array<std::int32_t, 12> spec = {T.order[0], T.order[1], T.order[2],
+  const std::array<std::int32_t, 11> spec = {T.order[0], T.order[1], T.order[2],
                                               dims[0], dims[1], dims[2],
                                               static_cast<std::int32_t>(nv), static_cast<std::int32_t>(nf),
-                                              static_cast<std::int32_t>(n_tiles), poly_off[1], poly_off[2],
-                                              max_constraints};
+                                              static_cast<std::int32_t>(n_tiles), poly_off[1], poly_off[2]};
   create_pipelines(spec);
+
+  // No constraints until a frame has some: every frame's solve reads the block.
+  begin();
+  update_constraints({}, VectorXd::Ones(N));
+  submit_and_wait();
+}
+
+bool VulkanDeformer::Impl::update_constraints(const std::vector<SparseVec>& rows, const VectorXd& inv_weight) {
+  const Index nc = static_cast<Index>(rows.size());
+  std::vector<std::int32_t> index;
+  std::vector<double> value;
+  index.reserve(nc * KKK);
+  value.reserve(nc * KKK);
+  for (const SparseVec& r : rows) {
+    index.insert(index.end(), r.index.begin(), r.index.end());
+    value.insert(value.end(), r.value.begin(), r.value.end());
+  }
+  // Without constraints the block does not depend on the weights.
+  if (cons.valid && cons.index == index && cons.value == value &&
+      (nc == 0 || (cons.inv_weight.size() == inv_weight.size() && cons.inv_weight == inv_weight)))
+    return false;
+
+  // Per control point, its entries s * KKK + o among the rows (s ascending: a fixed order).
+  std::vector<std::int32_t> ptr(N + 1, 0), entry(index.size());
+  for (std::int32_t c : index) ++ptr[c + 1];
+  for (Index c = 0; c < N; ++c) ptr[c + 1] += ptr[c];
+  {
+    std::vector<std::int32_t> fill(ptr.begin(), ptr.end() - 1);
+    for (size_t e = 0; e < index.size(); ++e) entry[fill[index[e]]++] = static_cast<std::int32_t>(e);
+  }
+  // C = R W^-1 R^T through those lists: only pairs of rows that share a control point.
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(nc, nc);
+  for (Index c = 0; c < N; ++c)
+    for (std::int32_t p = ptr[c]; p < ptr[c + 1]; ++p)
+      for (std::int32_t q = ptr[c]; q < ptr[c + 1]; ++q)
+        C(entry[p] / KKK, entry[q] / KKK) += value[entry[p]] * inv_weight[c] * value[entry[q]];
+
+  // The CPU backend's checks of the constraint rows (solve.h); the volume row's are on
+  // the device. A failure here is answered by the CPU backend's own error.
+  bool bad = false;
+  const double max_iw = inv_weight.size() ? inv_weight.maxCoeff() : 1.0;
+  for (Index s = 0; s < nc && !bad; ++s) {
+    double scale = 0;
+    for (int o = 0; o < KKK; ++o) scale += value[s * KKK + o] * value[s * KKK + o];
+    bad = !(C(s, s) > 1e-300) || !(C(s, s) > 1e-24 * scale * max_iw);
+  }
+  double hi = 1.0;
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(nc, nc);
+  if (!bad && nc > 0) {
+    const Eigen::VectorXd dg = C.diagonal().cwiseSqrt().cwiseInverse();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(dg.asDiagonal() * C * dg.asDiagonal());
+    const double lo = eig.eigenvalues().minCoeff();
+    hi = std::max(1.0, eig.eigenvalues().maxCoeff());
+    bad = !(lo > 1e-12 * eig.eigenvalues().maxCoeff());
+    if (!bad)
+      H = dg.asDiagonal() * eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
+          eig.eigenvectors().transpose() * dg.asDiagonal();
+  }
+
+  const size_t ci_size = CI_BASE + nc + (N + 1) + index.size();
+  const size_t cd_size = std::max<size_t>(1, value.size() + 2 * size_t(nc) * nc);
+  reserve(bConsI, &up_cons_i, 4 * ci_size, "constraints");
+  reserve(bConsD, &up_cons_d, 8 * cd_size, "constraints");
+  reserve(bWork, nullptr, 8 * 6 * std::max<size_t>(1, nc), "solve scratch");
+  std::int32_t* ci = static_cast<std::int32_t*>(up_cons_i.mapped());
+  std::fill(ci, ci + CI_BASE, 0);
+  ci[CI_NC] = static_cast<std::int32_t>(nc);
+  ci[CI_PTR] = static_cast<std::int32_t>(CI_BASE + nc);
+  ci[CI_IDX] = static_cast<std::int32_t>(CI_BASE + nc + N + 1);
+  ci[CI_G] = static_cast<std::int32_t>(value.size());
+  ci[CI_H] = static_cast<std::int32_t>(value.size() + size_t(nc) * nc);
+  for (Index s = 0; s < nc; ++s) ci[CI_BASE + s] = index[s * KKK];
+  std::copy(ptr.begin(), ptr.end(), ci + ci[CI_PTR]);
+  std::copy(entry.begin(), entry.end(), ci + ci[CI_IDX]);
+  double* cd = static_cast<double*>(up_cons_d.mapped());
+  std::copy(value.begin(), value.end(), cd);
+  for (Index p = 0; p < nc; ++p)
+    for (Index q = 0; q < nc; ++q) {
+      cd[ci[CI_G] + p * nc + q] = C(p, q);
+      cd[ci[CI_H] + p * nc + q] = H(p, q);
+    }
+  copy(up_cons_i, buf[bConsI], 4 * ci_size);
+  copy(up_cons_d, buf[bConsD], 8 * cd_size);
+
+  cons.valid = true;
+  cons.index = std::move(index);
+  cons.value = std::move(value);
+  cons.inv_weight = inv_weight;
+  cons.bad = bad;
+  cons.hi = hi;
+  return true;
+}
+
+const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const Shape& shape) {
+  ++frames;
+  for (Recorded& r : recorded)
+    if (r.shape == shape) {
+      r.last_use = frames;
+      return r;
+    }
+  if (recorded.size() >= kMaxRecorded) {
+    auto old = std::min_element(recorded.begin(), recorded.end(),
+                                [](const Recorded& a, const Recorded& b) { return a.last_use < b.last_use; });
+    vkFreeCommandBuffers(d, cmd_pool, 1, &old->cb);
+    recorded.erase(old);
+  }
+  Recorded r;
+  r.shape = shape;
+  r.last_use = frames;
+  VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  cai.commandPool = cmd_pool;
+  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cai.commandBufferCount = 1;
+  detail::check(vkAllocateCommandBuffers(d, &cai, &r.cb), "vkAllocateCommandBuffers");
+  recorded.push_back(r);  // freed with the others if recording fails
+  const VkCommandBuffer cb = r.cb;
+  const int k = static_cast<int>(shape.axes.size());
+  const bool steps = shape.mode == Shape::DeviceSteps;
+  const std::uint32_t n_steps = static_cast<std::uint32_t>(shape.mode == Shape::Plain ? 0 : k);
+
+  begin(cb, false);
+  if (dev->timestamps) vkCmdResetQueryPool(cb, queries, 0, 3 + n_steps);
+  if (dev->timestamps) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries, 0);
+  copy(cb, up_P, buf[bP], 12 * N);
+  copy(cb, up_frame, buf[bFrame], buf[bFrame].size());
+  if (shape.mode == Shape::HostOffsets) copy(cb, up_delta, buf[bDelta], 24 * N);
+  if (steps) vkCmdFillBuffer(cb, buf[bDelta].handle(), 0, VK_WHOLE_SIZE, 0);
+  barrier(cb);
+  vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &set, 0, nullptr);
+  Push pc;
+  dispatch(cb, kFfd, g_vert, pc);
+  // With device steps the first one measures the plain FFD's volume.
+  if (shape.measure && !steps) {
+    pc.slot = 0;
+    dispatch(cb, kVolume, g_face, pc);
+  }
+  timestamp(cb, 1);
+  for (int step = 0; step < k && shape.mode != Shape::Plain; ++step) {
+    Push s;
+    s.axis = shape.axes[step];
+    s.step = step;
+    s.left = k - step;
+    s.flags = shape.open ? 4 : 0;
+    if (steps) {
+      dispatch(cb, kCoef, g_tile, s);
+      dispatch(cb, kCombine, g_cp, s);
+      dispatch(cb, kSolve, 1, s);
+    }
+    s.slot = steps ? 3 : s.axis;  // delta row: this step's offsets, or the axis's total
+    dispatch(cb, kGather, g_vert, s);
+    timestamp(cb, 2 + step);
+  }
+  if (shape.measure && shape.mode != Shape::Plain) {
+    pc.slot = 1;
+    dispatch(cb, kVolume, g_face, pc);
+  }
+  if (steps) copy(cb, buf[bDelta], rb_delta, 24 * N);
+  if (steps) copy(cb, buf[bStats], rb_stats, 8 * ST_STEP_STRIDE * k);
+  if (shape.measure) {
+    const VkBufferCopy regions[2] = {{0, 0, 8 * g_face}, {8 * kMaxGroups, 8 * kMaxGroups, 8 * g_face}};
+    vkCmdCopyBuffer(cb, buf[bRed].handle(), rb_red.handle(), 2, regions);
+  }
+  host_barrier(cb);
+  timestamp(cb, 2 + n_steps);
+  detail::check(vkEndCommandBuffer(cb), "vkEndCommandBuffer");
+  recorded.back().n_steps = n_steps;
+  return recorded.back();
 }
 
 // ---- public API ----------------------------------------------------------------
@@ -468,6 +719,7 @@ RowMatrixX3d VulkanDeformer::vertices() const {
   if (!m.rb_X.handle()) m.rb_X = detail::Buffer(*m.dev, 12 * m.nv, detail::Buffer::Readback, "vertices (read-back)");
   m.begin();
   m.copy(m.buf[Impl::bX], m.rb_X, 12 * m.nv);
+  Impl::host_barrier(m.cmd);
   m.submit_and_wait();
   const float* x = static_cast<const float*>(m.rb_X.mapped());
   RowMatrixX3d out(m.nv, 3);
@@ -489,10 +741,10 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   // --- options: the same checks and messages as Deformer::deform ----------------
   VPFFD_CHECK(P.rows() == N, "deform", ": ", P.rows(), " control points, the lattice has ", N);
   VPFFD_CHECK(P.allFinite(), "deform", ": control points contain NaN or Inf");
-  VPFFD_CHECK(opt.rounds == 1, "deform: rounds is ", opt.rounds,
-              "; the vulkan backend runs the paper's single round (rounds=1)");
   const bool correcting = opt.preserve_volume || !opt.constraints.empty();
   if (correcting) VPFFD_CHECK(!opt.axes.empty(), "deform: axes is empty; name at least one of x, y, z");
+  VPFFD_CHECK(opt.rounds >= 1 && opt.rounds <= kMaxRounds, "deform: rounds is ", opt.rounds, "; expected 1..",
+              kMaxRounds);
   for (int a : opt.axes) VPFFD_CHECK(a >= 0 && a < 3, "deform: axis ", a, " not in 0..2");
   VectorXd inv_weight = VectorXd::Ones(N);
   if (opt.weights.size() > 0) {
@@ -516,7 +768,6 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
 
   const size_t nc = opt.constraints.size();
   std::vector<SparseVec> rows(nc);
-  Embedding Ec;
   {
     RowMatrixX3d pts(static_cast<Index>(nc), 3);
     for (size_t s = 0; s < nc; ++s) {
@@ -531,16 +782,13 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
         pts.row(s) = pc.point.transpose();
       }
     }
-    Ec = embed(L, pts, cpu.outside_policy(), 1, "constraint point");
-    const int per = T.order[0] * T.order[1] * T.order[2];
+    const Embedding Ec = embed(L, pts, cpu.outside_policy(), 1, "constraint point");
     for (size_t s = 0; s < nc; ++s) {
-      rows[s].index.resize(per);
-      rows[s].value.resize(per);
+      rows[s].index.resize(m.KKK);
+      rows[s].value.resize(m.KKK);
       point_basis_entries(T, Ec, static_cast<Index>(s), rows[s].index.data(), rows[s].value.data());
     }
   }
-  VPFFD_CHECK(nc <= size_t(max_constraints), "deform: the vulkan backend takes at most ", max_constraints,
-              " point constraints per frame, got ", nc, "; use backend='cpu' for more");
   auto row_dot = [&](const SparseVec& r, const Eigen::Ref<const VectorXd>& x) {
     double s = 0;
     for (size_t q = 0; q < r.index.size(); ++q) s += r.value[q] * x[r.index[q]];
@@ -566,176 +814,157 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
     for (Index c = 0; c < N; ++c) free_points += inv_weight[c] > 0;
     if (nrows > free_points)
       throw SolverError(vpffd::detail::concat("correction along ", axis_name[opt.axes[0]], ": ", nrows, " conditions (",
-                                       opt.preserve_volume ? "volume + " : "", nc, " point constraints) but only ",
-                                       free_points, " free control points"));
+                                              opt.preserve_volume ? "volume + " : "", nc,
+                                              " point constraints) but only ", free_points, " free control points"));
   }
 
-  // --- frame parameters ------------------------------------------------------------
+  // --- what the device runs ---------------------------------------------------------
+  const int naxes = static_cast<int>(opt.axes.size());
+  const int k = correcting ? naxes * opt.rounds : 0;
+  Shape shape;
+  shape.measure = measure;
+  shape.open = !cpu.is_closed();
+  DeformResult res;
+  res.offsets = RowMatrixX3d::Zero(N, 3);
+  if (opt.preserve_volume) {
+    shape.mode = Shape::DeviceSteps;
+    for (int step = 0; step < k; ++step) shape.axes.push_back(opt.axes[step % naxes]);
+  } else if (correcting) {
+    // Constraints alone do not depend on the mesh: the CPU backend's own steps, on the
+    // host (same offsets, same errors); the device applies each axis's total once.
+    shape.mode = Shape::HostOffsets;
+    for (int step = 0; step < k; ++step) {
+      const int a = opt.axes[step % naxes];
+      AxisStep info;
+      info.axis = a;
+      std::vector<double> rhs(nc);
+      const VectorXd Pa = P.col(a) + res.offsets.col(a);
+      for (size_t s = 0; s < nc; ++s) rhs[s] = opt.constraints[s].target[a] - row_dot(rows[s], Pa);
+      const VectorXd delta =
+          solve_axis_offsets(nullptr, 0.0, rows, rhs, inv_weight, axis_name[a], &info.sum_squares);
+      info.max_offset = delta.cwiseAbs().maxCoeff();
+      res.offsets.col(a) += delta;
+      res.steps.push_back(info);
+    }
+    shape.axes = opt.axes;
+  }
+
+  // --- frame data ------------------------------------------------------------------------
   std::unique_lock<std::mutex> lock(m.frame_mutex);
+  m.begin();  // one-time uploads, submitted just before the frame
+  bool aux = false;
+  if (shape.mode == Shape::DeviceSteps) {
+    aux = m.update_constraints(rows, inv_weight);
+    if (m.cons.bad) {
+      // A constraint row that cannot move, or dependent rows: the CPU backend says which.
+      detail::check(vkEndCommandBuffer(m.cmd), "vkEndCommandBuffer");
+      m.submit_and_wait(&m.cmd, 1);  // the block is consistent with `cons` again
+      lock.unlock();
+      cpu.deform(P, opt);
+      throw SolverError(vpffd::detail::concat("correction along ", axis_name[opt.axes[0]],
+                                              ": the volume and point constraints are linearly dependent"));
+    }
+  }
+  const bool new_invw = m.invw_uploaded.size() != N || m.invw_uploaded != inv_weight;
+  if (new_invw && shape.mode == Shape::DeviceSteps) {
+    std::memcpy(m.up_invw.mapped(), inv_weight.data(), 8 * N);
+    m.copy(m.up_invw, m.buf[Impl::bInvW], 8 * N);
+    aux = true;
+  }
   {
     float* p = static_cast<float*>(m.up_P.mapped());
     for (Index c = 0; c < N; ++c)
       for (int a = 0; a < 3; ++a) p[3 * c + a] = static_cast<float>(P(c, a) - m.origin[a]);
   }
-  const bool new_invw = m.invw_uploaded.size() != N || m.invw_uploaded != inv_weight;
-  if (new_invw) std::memcpy(m.up_invw.mapped(), inv_weight.data(), 8 * N);
+  m.reserve(Impl::bFrame, &m.up_frame, 8 * (FR_RHS + 3 * nc), "frame parameters");
   {
-    double* pd = static_cast<double*>(m.up_par_d.mapped());
-    std::int32_t* pi = static_cast<std::int32_t*>(m.up_par_i.mapped());
-    std::fill(pd, pd + PD_SIZE, 0.0);
-    std::fill(pi, pi + PI_SIZE, 0);
-    // Volumes on the device are relative to the origin, like the CPU's.
-    pd[PD_TARGET] = target;
-    pd[PD_MAX_INVW] = inv_weight.maxCoeff();
-    pi[PI_NC] = static_cast<std::int32_t>(nc);
-    std::vector<double> dense(N, 0.0);
-    for (size_t s = 0; s < nc; ++s) {
-      double* o = pd + PD_CONS + s * PD_CONS_STRIDE;
-      for (int a = 0; a < 3; ++a) {
-        const int sp = Ec.span[a][s];
-        double vals[KMAX] = {};
-        eval_span(T.poly[a].span_coef(sp), T.order[a], Ec.tau[a][s], vals);
-        for (int r = 0; r < T.order[a]; ++r) o[a * KMAX + r] = vals[r];
-        pi[PI_CONS + 3 * s + a] = sp - T.poly[a].degree;
-        o[3 * KMAX + a] = opt.constraints[s].target[a] - row_dot(rows[s], P.col(a));
-      }
-      double n2 = 0;
-      for (double v : rows[s].value) n2 += v * v;
-      o[3 * KMAX + 3] = n2;
-    }
-    // The constraint block of G = R W^-1 R^T does not depend on the frame's mesh.
-    for (size_t t = 0; t < nc; ++t) {
-      for (size_t q = 0; q < rows[t].index.size(); ++q) dense[rows[t].index[q]] += rows[t].value[q];
-      for (size_t s = 0; s < nc; ++s) {
-        double g = 0;
-        for (size_t q = 0; q < rows[s].index.size(); ++q)
-          g += rows[s].value[q] * inv_weight[rows[s].index[q]] * dense[rows[s].index[q]];
-        pd[PD_GCC + s * nc + t] = g;
-      }
-      for (size_t q = 0; q < rows[t].index.size(); ++q) dense[rows[t].index[q]] = 0.0;
-    }
+    double* fr = static_cast<double*>(m.up_frame.mapped());
+    std::fill(fr, fr + FR_RHS, 0.0);
+    fr[FR_TARGET] = target;  // volumes on the device are relative to the origin, like the CPU's
+    fr[FR_MAX_INVW] = inv_weight.maxCoeff();
+    fr[FR_HI] = m.cons.hi;
+    for (int a = 0; a < 3; ++a)
+      for (size_t s = 0; s < nc; ++s) fr[FR_RHS + a * nc + s] = opt.constraints[s].target[a] - row_dot(rows[s], P.col(a));
+  }
+  if (shape.mode == Shape::HostOffsets) {
+    double* dl = static_cast<double*>(m.up_delta.mapped());
+    for (int a = 0; a < 3; ++a)
+      for (Index c = 0; c < N; ++c) dl[a * N + c] = res.offsets(c, a);
   }
 
-  // --- record and submit ---------------------------------------------------------------
-  const int k = correcting ? static_cast<int>(opt.axes.size()) : 0;
-  m.begin();
-  if (m.dev->timestamps) vkCmdResetQueryPool(m.cmd, m.queries, 0, kQueries);
-  if (m.dev->timestamps) vkCmdWriteTimestamp(m.cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, m.queries, 0);
-  m.copy(m.up_P, m.buf[Impl::bP], 12 * N);
-  if (new_invw) m.copy(m.up_invw, m.buf[Impl::bInvW], 8 * N);
-  m.copy(m.up_par_d, m.buf[Impl::bParD], 8 * PD_SIZE);
-  m.copy(m.up_par_i, m.buf[Impl::bParI], 4 * PI_SIZE);
-  vkCmdFillBuffer(m.cmd, m.buf[Impl::bDelta].handle(), 0, VK_WHOLE_SIZE, 0);
-  vkCmdFillBuffer(m.cmd, m.buf[Impl::bStats].handle(), 0, VK_WHOLE_SIZE, 0);
-  m.barrier();
-  Push pc;
-  m.dispatch(kFfd, m.g_vert, pc);
-  // With a volume correction the first axis step measures the plain FFD's volume.
-  const bool step_measures = opt.preserve_volume && k > 0;
-  if (measure && !step_measures) {
-    m.dispatch(kVolume, m.g_face, pc);
-    Push r;
-    r.slot = ST_VOL_BEFORE;
-    r.count = static_cast<std::int32_t>(m.g_face);
-    m.dispatch(kReduce, 1, r);
-  }
-  m.timestamp(1);
-  for (int step = 0; step < k; ++step) {
-    Push s;
-    s.axis = opt.axes[step];
-    s.step = step;
-    s.left = k - step;
-    s.flags = (opt.preserve_volume ? 1 : 0) | (cpu.is_closed() ? 0 : 4);
-    if (opt.preserve_volume) {
-      m.dispatch(kCoef, m.g_tile, s);
-      m.dispatch(kCombine, m.g_cp, s);
-    }
-    m.dispatch(kSolve, 1, s);
-    m.dispatch(kOffsets, m.g_cp, s);
-    Push r;
-    r.flags = 2;
-    r.slot = ST_STEP + step * ST_STEP_STRIDE + 3;
-    r.count = static_cast<std::int32_t>(m.g_cp);
-    m.dispatch(kReduce, 1, r);
-    m.dispatch(kGather, m.g_vert, s);
-    m.timestamp(2 + step);
-  }
-  if (measure) {
-    m.dispatch(kVolume, m.g_face, pc);
-    Push r;
-    r.slot = ST_VOL;
-    r.count = static_cast<std::int32_t>(m.g_face);
-    m.dispatch(kReduce, 1, r);
-  }
-  m.copy(m.buf[Impl::bDelta], m.rb_delta, 24 * N);
-  m.copy(m.buf[Impl::bStats], m.rb_stats, 8 * ST_SIZE);
-  m.barrier();
-  m.timestamp(5);
-  m.submit_and_wait();
-  if (new_invw) m.invw_uploaded = inv_weight;
+  // --- submit: [uploads,] the recorded frame ---------------------------------------------
+  const Impl::Recorded& rec = m.frame_commands(shape);
+  detail::check(vkEndCommandBuffer(m.cmd), "vkEndCommandBuffer");
+  const VkCommandBuffer cbs[2] = {m.cmd, rec.cb};
+  m.submit_and_wait(aux ? cbs : cbs + 1, aux ? 2 : 1);
+  if (new_invw && shape.mode == Shape::DeviceSteps) m.invw_uploaded = inv_weight;
 
   FrameTimings& tm = m.timings;
   tm = FrameTimings{};
+  const std::uint32_t ns = rec.n_steps;
   if (m.dev->timestamps) {
     std::uint64_t ts[kQueries] = {};
-    // Only the written queries: 0, 1, 2..1+k, 5.
-    detail::check(vkGetQueryPoolResults(m.d, m.queries, 0, 2 + k, sizeof(std::uint64_t) * (2 + k), ts,
+    detail::check(vkGetQueryPoolResults(m.d, m.queries, 0, 3 + ns, sizeof(std::uint64_t) * (3 + ns), ts,
                                         sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
-                  "vkGetQueryPoolResults");
-    detail::check(vkGetQueryPoolResults(m.d, m.queries, 5, 1, sizeof(std::uint64_t), ts + 5, sizeof(std::uint64_t),
-                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
                   "vkGetQueryPoolResults");
     const double p = m.dev->timestamp_period_ns * 1e-6;
     tm.has_timestamps = true;
-    tm.gpu_total = double(ts[5] - ts[0]) * p;
+    tm.gpu_total = double(ts[2 + ns] - ts[0]) * p;
     tm.gpu_ffd = double(ts[1] - ts[0]) * p;
-    for (int s = 0; s < k; ++s) tm.gpu_steps.push_back(double(ts[2 + s] - ts[1 + s]) * p);
-    tm.gpu_final = double(ts[5] - ts[1 + k]) * p;
+    for (std::uint32_t s = 0; s < ns; ++s) tm.gpu_steps.push_back(double(ts[2 + s] - ts[1 + s]) * p);
+    tm.gpu_final = double(ts[2 + ns] - ts[1 + ns]) * p;
   }
 
   // --- results -------------------------------------------------------------------------
   const double* st = static_cast<const double*>(m.rb_stats.mapped());
-  for (int step = 0; step < k; ++step) {
-    const double* q = st + ST_STEP + step * ST_STEP_STRIDE;
-    const char ax = axis_name[opt.axes[step]];
-    const int status = static_cast<int>(q[4]);
-    if (status == 1)
-      throw SolverError(vpffd::detail::concat("correction along ", ax,
-                                       ": the volume coefficients of the free control points are all zero "
-                                       "(the mesh is flat along this axis, or every control point that "
-                                       "influences it is fixed)"));
-    if (status == 2)
-      throw SolverError(vpffd::detail::concat("correction along ", ax, ": point constraint ", static_cast<int>(q[5]),
-                                       " cannot move: every control point that influences it is fixed"));
-    if (status == 3)
-      throw SolverError(vpffd::detail::concat("correction along ", ax, ": the ",
-                                       opt.preserve_volume ? "volume and point" : "point",
-                                       " constraints are linearly dependent (condition number ", q[5],
-                                       "); two constraints on the same point, or a constraint the volume row "
-                                       "already fixes?"));
+  if (shape.mode == Shape::DeviceSteps) {
+    for (int step = 0; step < k; ++step) {
+      const double* q = st + ST_STEP + step * ST_STEP_STRIDE;
+      const char ax = axis_name[shape.axes[step]];
+      const int status = static_cast<int>(q[4]);
+      if (status == 1)
+        throw SolverError(vpffd::detail::concat("correction along ", ax,
+                                                ": the volume coefficients of the free control points are all zero "
+                                                "(the mesh is flat along this axis, or every control point that "
+                                                "influences it is fixed)"));
+      if (status == 3) {
+        // The volume row depends on the constraints: the CPU backend gives its exact
+        // message (its condition number); should its test pass, ours still stands.
+        lock.unlock();
+        cpu.deform(P, opt);
+        throw SolverError(vpffd::detail::concat(
+            "correction along ", ax, ": the volume and point constraints are linearly dependent (condition number ",
+            q[5], "); two constraints on the same point, or a constraint the volume row already fixes?"));
+      }
+    }
   }
-  DeformResult res;
   res.target_volume = opt.preserve_volume ? target : std::numeric_limits<double>::quiet_NaN();
-  res.offsets = RowMatrixX3d::Zero(N, 3);
-  const double* dl = static_cast<const double*>(m.rb_delta.mapped());
-  for (int a = 0; a < 3; ++a)
-    for (Index c = 0; c < N; ++c) res.offsets(c, a) = dl[a * N + c];
-  res.control_points = P + res.offsets;
-  if (measure) {
-    res.volume_before = step_measures ? st[ST_STEP] : st[ST_VOL_BEFORE];
-    res.volume = st[ST_VOL];
-  }
-  for (int step = 0; step < k; ++step) {
-    const double* q = st + ST_STEP + step * ST_STEP_STRIDE;
-    AxisStep info;
-    info.axis = opt.axes[step];
-    if (opt.preserve_volume) {
+  if (shape.mode == Shape::DeviceSteps) {
+    const double* dl = static_cast<const double*>(m.rb_delta.mapped());
+    for (int a = 0; a < 3; ++a)
+      for (Index c = 0; c < N; ++c) res.offsets(c, a) = dl[a * N + c];
+    for (int step = 0; step < k; ++step) {
+      const double* q = st + ST_STEP + step * ST_STEP_STRIDE;
+      AxisStep info;
+      info.axis = shape.axes[step];
       info.volume_before = q[0];
       info.share = q[1];
       info.sum_squares = q[2];
+      info.max_offset = q[3];
+      res.steps.push_back(info);
     }
-    info.max_offset = q[3];
-    res.steps.push_back(info);
+  }
+  res.control_points = P + res.offsets;
+  if (measure) {
+    // The volume passes' per-workgroup partials, added in a fixed order.
+    const double* red = static_cast<const double*>(m.rb_red.mapped());
+    double before = 0, after = 0;
+    for (std::uint32_t g = 0; g < m.g_face; ++g) before += red[g];
+    for (std::uint32_t g = 0; g < m.g_face; ++g) after += red[kMaxGroups + g];
+    if (shape.mode == Shape::DeviceSteps && k > 0) before = st[ST_STEP];
+    if (shape.mode == Shape::Plain) after = before;
+    res.volume_before = before;
+    res.volume = after;
   }
   for (size_t s = 0; s < nc; ++s)
     for (int a = 0; a < 3; ++a)

@@ -2,12 +2,19 @@
 /// @file vulkan.h
 /// The GLSL/Vulkan compute backend (target vpffd::vulkan, macro VPFFD_HAS_VULKAN).
 ///
-/// A VulkanDeformer runs a whole frame on one device: plain FFD, per corrected axis
-/// the volume coefficients, the closed-form offsets and the update of the vertices,
-/// and the volume measurements, in a single command buffer submission. Mesh data
-/// and per-vertex basis data are uploaded once; a frame uploads the control points
-/// (and its few option scalars) and reads back the N x 3 offsets and a few scalars;
-/// the vertices stay on the device until vertices() asks for them.
+/// A VulkanDeformer runs a whole frame on one device: plain FFD, per axis step
+/// (`rounds` times through the axes) the volume coefficients, the closed-form offsets
+/// and the update of the vertices, and the volume measurements, in a single queue
+/// submission. Mesh data and per-vertex basis data are uploaded once; the frame's
+/// command buffer is recorded once per options shape (axes, rounds, volume or not)
+/// and reused; a frame uploads the control points and a few scalars (the point
+/// constraints' block only when the constraint sources or the weights change) and
+/// reads back the N x 3 offsets and a few scalars; the vertices stay on the device
+/// until vertices() asks for them. Point constraints: any number the CPU backend
+/// takes (up to the number of free control points); with a volume correction their
+/// block C = R W^-1 R^T is factored on the host once per constraint set (O(nc^3))
+/// and each device step costs O(nc^2); without one they do not depend on the mesh
+/// and are solved on the host exactly as the CPU backend solves them.
 ///
 /// Precision: positions, control points and basis values are float32 on the device
 /// (positions relative to origin()); weights, coefficients, volumes and offsets are
@@ -52,7 +59,8 @@ std::vector<DeviceInfo> devices(std::string* why = nullptr);
 struct FrameTimings {
   double gpu_total = 0;           ///< timestamp queries: first to last command of the frame
   double gpu_ffd = 0;             ///< plain FFD (and the volume before correction)
-  std::vector<double> gpu_steps;  ///< each axis step: coefficients, solve, offsets, vertex update
+  std::vector<double> gpu_steps;  ///< each axis step: coefficients, solve, vertex update (constraints
+                                  ///< alone: each axis's vertex update)
   double gpu_final = 0;           ///< final volume measurement and copies
   double host_total = 0;          ///< deform() call, end to end (upload, submit, wait, read back)
   bool has_timestamps = false;    ///< false when the queue has no timestamp support
@@ -79,7 +87,8 @@ class VulkanDeformer {
 
   /// One frame with control points P (N x 3). `opt.method` and `opt.threads` are
   /// ignored (the device always uses the traversal). With read_vertices false the
-  /// result's `vertices` is empty: call vertices() when they are needed.
+  /// result's `vertices` is empty: call vertices() when they are needed. Errors are
+  /// the CPU backend's (for dependent constraint rows it is asked for its message).
   /// @throws as Deformer::deform; a device failure throws DeviceError
   DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
                       bool read_vertices = true);
@@ -101,9 +110,6 @@ class VulkanDeformer {
   std::uint64_t vertex_buffer_handle() const;
   std::uint64_t index_buffer_handle() const;
   const std::vector<std::int32_t>& vertex_order() const;
-
-  /// Point constraints one frame may have on this backend.
-  static constexpr int max_constraints = 31;
 
  private:
   struct Impl;

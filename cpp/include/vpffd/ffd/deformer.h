@@ -17,6 +17,7 @@
 #include "vpffd/correction/solve.h"
 #include "vpffd/ffd/basis_matrix.h"
 #include "vpffd/ffd/kernels.h"
+#include "vpffd/ffd/vertex_order.h"
 #include "vpffd/lattice/embed.h"
 #include "vpffd/mesh/validate.h"
 #include "vpffd/volume/coefficients.h"
@@ -58,9 +59,22 @@ class Deformer {
     validate_mesh(V_, F_, "Deformer");
     validate_lattice(lattice_);
     tables_ = basis_tables(lattice_);
-    embedding_ = embed(lattice_, V_, policy_, threads);
+    {
+      // Frames run in cell order (vertex_order.h); the faces are renumbered to
+      // match but keep their order, so every face sum is the same as unsorted.
+      const Embedding E = embed(lattice_, V_, policy_, threads);
+      order_ = cell_order(tables_, E);
+      rank_ = inverse_order(order_);
+      embedding_ = permute_embedding(E, order_);
+    }
+    // Faces follow their first vertex in processing order, so the face pass and
+    // the per-vertex face sums stay local too.
+    face_order_ = face_order(F_, rank_);
+    Fs_.resize(F_.rows(), 3);
+    for (Index f = 0; f < F_.rows(); ++f)
+      for (int c = 0; c < 3; ++c) Fs_(f, c) = rank_[F_(face_order_[f], c)];
     edges_ = edge_report(F_);
-    adjacency_ = vertex_faces(F_, V_.rows());
+    adjacency_ = vertex_faces(Fs_, V_.rows());
     origin_ = 0.5 * (lattice_.box_min + lattice_.box_max);
     rest_volume_ = signed_volume(V_, F_, origin_, threads);
   }
@@ -76,7 +90,10 @@ class Deformer {
   Index n_control_points() const { return lattice_.n_control_points(); }
   const EdgeReport& edges() const { return edges_; }
   bool is_closed() const { return edges_.closed(); }
-  const Embedding& embedding() const { return embedding_; }
+  /// Per-vertex basis data in the caller's vertex order (a copy).
+  Embedding embedding() const { return permute_embedding(embedding_, rank_); }
+  /// Processing order of the frames: position -> vertex index (sorted by cell).
+  const std::vector<std::int32_t>& processing_order() const { return order_; }
   const BasisTables& tables() const { return tables_; }
   OutsidePolicy outside_policy() const { return policy_; }
   /// Reference point of the volume sums (the lattice box centre).
@@ -89,40 +106,49 @@ class Deformer {
     return rest_volume_;
   }
 
-  /// Bytes of per-vertex data kept for every frame: the embedding (36) plus the
-  /// vertex-face adjacency (about 6 faces x 4 bytes + 4).
+  /// Bytes of per-vertex data kept for every frame: the embedding (36), the
+  /// vertex-face adjacency (about 6 faces x 4 bytes + 4) and the processing
+  /// order (4 + 4), plus the renumbered faces per vertex (about 2 x 12).
   double bytes_per_vertex() const {
-    const double adj = double(adjacency_.indptr.size() + adjacency_.faces.size()) * 4 / double(n_vertices());
-    return double(Embedding::bytes_per_point) + adj;
+    const double nv = double(n_vertices());
+    const double adj = double(adjacency_.indptr.size() + adjacency_.faces.size()) * 4 / nv;
+    return double(Embedding::bytes_per_point) + adj + 8.0 + double(Fs_.size()) * 4 / nv;
   }
 
   /// Plain FFD of the mesh vertices. @param P N x 3 control points. @returns #V x 3
   RowMatrixX3d ffd(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "ffd");
-    RowMatrixX3d X(n_vertices(), 3);
-    eval_ffd(P, X.data(), threads);
-    return X;
+    RowMatrixX3d Xs(n_vertices(), 3);
+    eval_ffd(P, Xs.data(), threads);
+    return to_caller_order(Xs, threads);
   }
 
   /// Jacobians dD/dx at the vertices: #V x 9, row-major 3x3 per vertex.
   RowMatrixXd jacobians(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "jacobians");
     const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
-    RowMatrixXd J(n_vertices(), 9);
+    RowMatrixXd Js(n_vertices(), 9), J(n_vertices(), 9);
     const Vector3d s = parameter_scale(lattice_);
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
-      detail::jacobian_kernel(tables_, embedding_, Px.data(), Py.data(), Pz.data(), s, J.data(), b, e);
+      detail::jacobian_kernel(tables_, embedding_, Px.data(), Py.data(), Pz.data(), s, Js.data(), b, e);
+      for (Index i = b; i < e; ++i) J.row(order_[i]) = Js.row(i);
     });
     return J;
   }
 
   /// #V x N vertex basis matrix: ffd(P) == B * P.
-  CsrMatrix basis_matrix(int threads = 0) const { return vertex_basis_matrix(tables_, embedding_, threads); }
+  CsrMatrix basis_matrix(int threads = 0) const {
+    return vertex_basis_matrix(tables_, permute_embedding(embedding_, rank_), threads);
+  }
 
-  /// The paper's N x F face matrix, built on first use and kept.
+  /// Processing order of the faces: position -> face index (the columns of face_matrix()).
+  const std::vector<std::int32_t>& face_processing_order() const { return face_order_; }
+
+  /// The paper's N x F face matrix, built on first use and kept. Its column j
+  /// is face face_processing_order()[j]; see face_matrix_in_face_order().
   const CsrMatrix& face_matrix(int threads = 0) const {
     std::call_once(face_matrix_once_, [&] {
-      face_matrix_ = std::make_unique<CsrMatrix>(face_basis_matrix(tables_, embedding_, F_, threads));
+      face_matrix_ = std::make_unique<CsrMatrix>(face_basis_matrix(tables_, embedding_, Fs_, threads));
     });
     return *face_matrix_;
   }
@@ -135,7 +161,9 @@ class Deformer {
     VPFFD_CHECK(X.rows() == n_vertices(), "volume_coefficients: X has ", X.rows(), " rows, expected ",
                 n_vertices());
     VPFFD_CHECK(axis >= 0 && axis < 3, "volume_coefficients: axis ", axis, " not in 0..2");
-    return coefficients(X.data(), axis, method, threads);
+    RowMatrixX3d Xs(n_vertices(), 3);
+    for (Index i = 0; i < n_vertices(); ++i) Xs.row(i) = X.row(order_[i]);
+    return coefficients(Xs.data(), axis, method, threads);
   }
 
   /// One frame: plain FFD with control points P (N x 3), then the volume
@@ -163,6 +191,15 @@ class Deformer {
     });
   }
 
+  /// Rows of X (processing order) back in the caller's vertex order.
+  RowMatrixX3d to_caller_order(const RowMatrixX3d& Xs, int threads) const {
+    RowMatrixX3d X(Xs.rows(), 3);
+    parallel_range(Xs.rows(), threads, [&](Index b, Index e) {
+      for (Index i = b; i < e; ++i) X.row(order_[i]) = Xs.row(i);
+    });
+    return X;
+  }
+
   void gather(const VectorXd& D, double* X, int axis, int threads) const {
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
@@ -177,10 +214,10 @@ class Deformer {
       // differs from the cone volume that is measured and kept.
       VPFFD_CHECK(method == CoefficientMethod::Traversal,
                   "deform: method='csr' needs a closed mesh; use method='traversal' with allow_open");
-      return coefficients_traversal(tables_, embedding_, adjacency_, X, F_, axis, origin_, threads, true);
+      return coefficients_traversal(tables_, embedding_, adjacency_, X, Fs_, axis, origin_, threads, true);
     }
-    if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, F_, axis, origin_, threads);
-    return coefficients_traversal(tables_, embedding_, adjacency_, X, F_, axis, origin_, threads);
+    if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, Fs_, axis, origin_, threads);
+    return coefficients_traversal(tables_, embedding_, adjacency_, X, Fs_, axis, origin_, threads);
   }
 
   Lattice lattice_;
@@ -188,7 +225,11 @@ class Deformer {
   RowMatrixX3i F_;
   OutsidePolicy policy_;
   BasisTables tables_;
-  Embedding embedding_;
+  std::vector<std::int32_t> order_;  ///< processing position -> vertex
+  std::vector<std::int32_t> rank_;   ///< vertex -> processing position
+  std::vector<std::int32_t> face_order_;  ///< face processing position -> face
+  Embedding embedding_;              ///< in processing order
+  RowMatrixX3i Fs_;                  ///< faces with processing-order indices
   EdgeReport edges_;
   VertexFaces adjacency_;
   Vector3d origin_;
@@ -196,6 +237,27 @@ class Deformer {
   mutable std::once_flag face_matrix_once_;
   mutable std::unique_ptr<CsrMatrix> face_matrix_;
 };
+
+/// The paper's face matrix with its columns in the mesh's own face order.
+inline CsrMatrix face_matrix_in_face_order(const Deformer& d, int threads = 0) {
+  const CsrMatrix& A = d.face_matrix(threads);
+  const std::vector<std::int32_t>& fo = d.face_processing_order();
+  CsrMatrix B = A;
+  parallel_range(A.rows, threads, [&](Index b, Index e) {
+    std::vector<std::pair<std::int32_t, double>> row;
+    for (Index r = b; r < e; ++r) {
+      row.clear();
+      for (auto p = A.indptr[r]; p < A.indptr[r + 1]; ++p) row.emplace_back(fo[A.indices[p]], A.values[p]);
+      std::sort(row.begin(), row.end());
+      auto p = A.indptr[r];
+      for (const auto& [c, v] : row) {
+        B.indices[p] = c;
+        B.values[p++] = v;
+      }
+    }
+  });
+  return B;
+}
 
 inline RowMatrixX3d ffd_points(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& P,
                                const Eigen::Ref<const RowMatrixX3d>& X, OutsidePolicy policy, int threads) {
@@ -301,13 +363,13 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   // --- plain FFD -------------------------------------------------------------
   DeformResult res;
   res.target_volume = opt.preserve_volume ? pl.target : std::numeric_limits<double>::quiet_NaN();
-  res.vertices.resize(n_vertices(), 3);
-  double* X = res.vertices.data();
+  RowMatrixX3d Xs(n_vertices(), 3);  // processing order
+  double* X = Xs.data();
   eval_ffd(P, X, threads);
   res.offsets = RowMatrixX3d::Zero(N, 3);
   // With a volume correction the first axis step measures the plain FFD's volume anyway.
   if (pl.measure && !(opt.preserve_volume && !opt.axes.empty()))
-    res.volume_before = signed_volume(X, F_, origin_, threads);
+    res.volume_before = signed_volume(X, Fs_, origin_, threads);
 
   // --- axis steps -------------------------------------------------------------
   if (pl.correcting) {
@@ -338,7 +400,8 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     }
   }
   res.control_points = P + res.offsets;
-  if (pl.measure) res.volume = signed_volume(X, F_, origin_, threads);
+  if (pl.measure) res.volume = signed_volume(X, Fs_, origin_, threads);
+  res.vertices = to_caller_order(Xs, threads);
   for (size_t s = 0; s < nc; ++s)
     for (int a = 0; a < 3; ++a)
       res.constraint_error = std::max(res.constraint_error, std::abs(row_dot(rows[s], res.control_points.col(a)) -

@@ -70,17 +70,36 @@ template <int K, class Weight>
 void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, double* acc, Index b, Index e) {
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
   alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
+  constexpr int KB = K > 0 ? K * K : 1;
+  constexpr int KW = K > 0 ? K : 1;
+  KVec<KW> block[KB];
+  for (auto& x : block) x.setZero();
+  Index block_base = -1;
+  auto flush = [&] {
+    if constexpr (K > 0) {
+      if (block_base < 0) return;
+      for (int i = 0; i < K; ++i)
+        for (int j = 0; j < K; ++j) {
+          Eigen::Map<KVec<K>> a(acc + block_base + i * si + j * sj);
+          a += block[i * K + j];
+          block[i * K + j].setZero();
+        }
+    }
+  };
   for (Index v = b; v < e; ++v) {
     const double wv = weight(v);
     if (wv == 0.0) continue;
     const Index base = point_basis<K>(T, E, v, bu, bv, bw);
     if constexpr (K > 0) {
+      // Consecutive points of one cell (vertex_order.h) add into a local block;
+      // it goes to memory when the cell changes.
+      if (base != block_base) {
+        flush();
+        block_base = base;
+      }
       const KVec<K> wk = wv * kload<K>(bw);
       for (int i = 0; i < K; ++i)
-        for (int j = 0; j < K; ++j) {
-          Eigen::Map<KVec<K>> a(acc + base + i * si + j * sj);
-          a += (bu[i] * bv[j]) * wk;
-        }
+        for (int j = 0; j < K; ++j) block[i * K + j] += (bu[i] * bv[j]) * wk;
     } else {
       for (int i = 0; i < T.order[0]; ++i)
         for (int j = 0; j < T.order[1]; ++j) {
@@ -90,6 +109,7 @@ void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, d
         }
     }
   }
+  flush();
 }
 
 /// out[3 v + axis] += sum_c B_c(u_v) D[c] for v in [b, e): one coordinate of an

@@ -29,7 +29,6 @@ layout(constant_id = 7) const int NFACE = 1;
 layout(constant_id = 8) const int NTILE = 1;
 layout(constant_id = 9) const int POLY_V = 0;  // start of axis v's span table in `poly`
 layout(constant_id = 10) const int POLY_W = 0;
-layout(constant_id = 11) const int MAXC = 31;  // point constraints per frame
 
 const int NCP = NU * NV * NW;
 const int KKK = KU * KV * KW;
@@ -38,9 +37,9 @@ layout(push_constant) uniform Push {
   int axis;   // 0, 1, 2
   int step;   // index of the axis step in this frame
   int left;   // axis steps left including this one (the share divisor)
-  int flags;  // bit 0: volume row present; bit 1: max instead of sum (reduce); bit 2: cone weights
-  int slot;   // output slot of reduce passes
-  int count;  // number of partials / constraints
+  int flags;  // bit 2: cone weights (an open mesh); the other bits are unused
+  int slot;   // volume: region of `red` to write; gather: row of `delta` to add
+  int count;  // unused (keeps the block's layout)
 } pc;
 
 layout(std430, set = 0, binding = 0) readonly buffer BufP { float P[]; };       // 3N, relative to the origin
@@ -58,28 +57,32 @@ layout(std430, set = 0, binding = 11) readonly buffer BufCombPtr { int comb_ptr[
 layout(std430, set = 0, binding = 12) readonly buffer BufComb { int comb_idx[]; };
 layout(std430, set = 0, binding = 13) buffer BufAlpha { double alpha[]; };       // N
 layout(std430, set = 0, binding = 14) readonly buffer BufInvW { double inv_w[]; };  // N, 0 = fixed
-layout(std430, set = 0, binding = 15) buffer BufDelta { double delta[]; };       // 3N, axis-major
-// Frame parameters (see vulkan_deformer.cpp, FrameLayout): doubles and ints.
-layout(std430, set = 0, binding = 16) readonly buffer BufParD { double par_d[]; };
-layout(std430, set = 0, binding = 17) readonly buffer BufParI { int par_i[]; };
+layout(std430, set = 0, binding = 15) buffer BufDelta { double delta[]; };  // 4N: 3 accumulated axes, this step's
+// Frame parameters (see vulkan_deformer.cpp, the FR_/CI_/ST_ constants): doubles.
+layout(std430, set = 0, binding = 16) readonly buffer BufFrame { double frame[]; };
+// The point constraints' block: uploaded when the constraint sources or the
+// weights change, not per frame.
+layout(std430, set = 0, binding = 17) readonly buffer BufConsI { int cons_i[]; };
 layout(std430, set = 0, binding = 18) buffer BufStats { double stats[]; };
-layout(std430, set = 0, binding = 19) buffer BufRed { double red[]; };  // per-workgroup partials
+layout(std430, set = 0, binding = 19) buffer BufRed { double red[]; };  // per-workgroup volume partials
+layout(std430, set = 0, binding = 20) readonly buffer BufConsD { double cons_d[]; };
+// Scratch vectors of the solve workgroup; coherent: its invocations exchange them.
+layout(std430, set = 0, binding = 21) coherent buffer BufWork { double work[]; };
 
-// FrameLayout, mirrored in vulkan_deformer.cpp.
-const int PD_TARGET = 0;
-const int PD_MAX_INVW = 1;
-const int PD_CONS = 8;             // per constraint: 3 x KMAX basis values, 3 rhs, |row|^2
-const int PD_CONS_STRIDE = 3 * KMAX + 4;
-const int PD_GCC = PD_CONS + 32 * PD_CONS_STRIDE;  // 32 >= MAXC  // nc x nc block R W^-1 R^T of the constraints
-const int PI_NC = 0;
-const int PI_CONS = 4;             // per constraint: first control index along u, v, w
-// Stats layout.
-const int ST_VOL_BEFORE = 0;
-const int ST_VOL = 1;
-const int ST_STEP = 8;             // per step: volume_before, share, sum_squares, max_offset, status, detail
+// Layouts, mirrored in vulkan_deformer.cpp.
+const int RED_STRIDE = 1024;       // = the most workgroups of a grid-stride pass
+const int FR_TARGET = 0;
+const int FR_MAX_INVW = 1;
+const int FR_HI = 2;               // largest eigenvalue of the unit-diagonal constraint block (>= 1)
+const int FR_RHS = 8;              // 3 x nc, axis-major: target - B(u_s) . P along the axis
+const int CI_NC = 0;
+const int CI_PTR = 1;              // offset of the per-control-point lists (N + 1 entries)
+const int CI_IDX = 2;              // offset of their entries: s * KKK + local index into cons_d
+const int CI_G = 3;                // offset in cons_d of G_cc = R W^-1 R^T (nc x nc)
+const int CI_H = 4;                // offset in cons_d of G_cc^-1 (nc x nc)
+const int CI_BASE = 8;             // nc first control point indices; cons_d starts with nc x KKK row values
+const int ST_STEP = 0;             // per step: volume_before, share, sum_squares, max_offset, status, detail
 const int ST_STEP_STRIDE = 8;
-const int ST_LAMBDA = 64;          // per step: 32 multipliers
-const int ST_LAMBDA_STRIDE = 32;
 
 // Basis values of one axis at local parameter t: Horner on the span's power form
 // (the core's layout: coefficient of tau^q of function r at [q][r]).
@@ -110,16 +113,6 @@ double face_normal(int f, int a) {
   const double e1a = double(X[3 * v1 + a1]) - p0a, e1b = double(X[3 * v1 + a2]) - p0b;
   const double e2a = double(X[3 * v2 + a1]) - p0a, e2b = double(X[3 * v2 + a2]) - p0b;
   return e1a * e2b - e1b * e2a;
-}
-
-// Value of constraint s's basis row at control point c (0 outside its support).
-double constraint_row(int s, int c) {
-  const int i = c / (NV * NW) - par_i[PI_CONS + 3 * s];
-  const int j = (c / NW) % NV - par_i[PI_CONS + 3 * s + 1];
-  const int k = c % NW - par_i[PI_CONS + 3 * s + 2];
-  if (i < 0 || i >= KU || j < 0 || j >= KV || k < 0 || k >= KW) return 0.0;
-  const int o = PD_CONS + s * PD_CONS_STRIDE;
-  return par_d[o + i] * par_d[o + KMAX + j] * par_d[o + 2 * KMAX + k];
 }
 
 // Face f's contribution to the weight of its corner c for an open mesh: the exact

@@ -1,12 +1,15 @@
 #version 450
-// X[v][axis] += sum_c B_c(u_v) delta_c: after a correction along one axis only that
-// coordinate moves. The basis products are formed in double exactly as in `coef`,
-// so the volume change is alpha . delta up to the float32 rounding of X.
+// X[v][axis] += sum_c B_c(u_v) delta_c, with delta the row pc.slot of `delta` (this
+// step's offsets, or an axis's total when the host solved the frame): after a
+// correction along one axis only that coordinate moves. The basis products are
+// formed in double exactly as in `coef`, so the volume change is alpha . delta up
+// to the float32 rounding of X.
 #include "common.glsl"
 layout(local_size_x = 256) in;
 
 void main() {
   const int a = pc.axis;
+  const int src = pc.slot * NCP;
   const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
   for (uint v = gl_GlobalInvocationID.x; v < uint(NVERT); v += stride) {
     float bu[KMAX], bv[KMAX], bw[KMAX];
@@ -14,7 +17,7 @@ void main() {
     double s = 0.0;
     for (int i = 0; i < KU; ++i) {
       for (int j = 0; j < KV; ++j) {
-        const int row = a * NCP + base + (i * NV + j) * NW;
+        const int row = src + base + (i * NV + j) * NW;
         const double bij = double(bu[i]) * double(bv[j]);
         for (int k = 0; k < KW; ++k) s += bij * double(bw[k]) * delta[row + k];
       }

@@ -1,7 +1,8 @@
 #version 450
 // Enclosed volume, per workgroup: sum_f p0 . (p1 x p2) with positions relative to
-// the lattice centre (the CPU's signed_volume), in double; `reduce` adds the
-// per-workgroup partials in a fixed order.
+// the lattice centre (the CPU's signed_volume), in double, into region pc.slot of
+// `red`. The host adds the (at most RED_STRIDE) partials in a fixed order: a
+// one-workgroup reduce pass would cost a dispatch and a barrier for 1024 additions.
 #include "common.glsl"
 layout(local_size_x = 256) in;
 shared double s_sum[256];
@@ -23,5 +24,5 @@ void main() {
     if (l < h) s_sum[l] += s_sum[l + h];
     barrier();
   }
-  if (l == 0) red[gl_WorkGroupID.x] = s_sum[0] / 6.0;
+  if (l == 0) red[pc.slot * RED_STRIDE + int(gl_WorkGroupID.x)] = s_sum[0] / 6.0;
 }
