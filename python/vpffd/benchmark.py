@@ -96,7 +96,9 @@ def bench_mesh(name: str, mesh: Mesh, shape=(10, 10, 10), degree=3, repeats=7, w
 
 
 def default_meshes(include_shared: bool = True) -> list:
-    out = [("icosphere (2,562 v)", lambda: shapes.icosphere(4)), ("icosphere (40,962 v)", lambda: shapes.icosphere(6))]
+    # The icospheres match the paper's Sphere and the sizes of the Blender reference in the README.
+    out = [("icosphere (2,562 v)", lambda: shapes.icosphere(4)), ("icosphere (40,962 v)", lambda: shapes.icosphere(6)),
+           ("icosphere (655,362 v)", lambda: shapes.icosphere(8))]
     if include_shared and SHARED_MESHES.is_dir():
         for f in ["bunny_watertight.ply", "armadillo.ply", "horse.ply", "dragon_vrip_welded.ply.gz"]:
             p = SHARED_MESHES / f

@@ -81,19 +81,10 @@ void bind_deformer(py::module_& m) {
           "deform",
           [](const Deformer& d, RefV P, bool preserve_volume, const std::string& axes,
              std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
-             const std::vector<std::tuple<Index, Vector3d, Vector3d>>& constraints,
+             const PyConstraints& constraints,
              std::optional<double> target_volume, const std::string& method, int threads, bool allow_open, int rounds) {
-            CorrectionOptions o;
-            o.preserve_volume = preserve_volume;
-            o.axes = parse_axes(axes);
-            if (weights) o.weights = std::move(*weights);
-            if (fixed) o.fixed = std::move(*fixed);
-            for (const auto& [v, p, t] : constraints) o.constraints.push_back({v, p, t});
-            if (target_volume) o.target_volume = *target_volume;
-            o.method = parse_method(method);
-            o.threads = threads;
-            o.allow_open = allow_open;
-            o.rounds = rounds;
+            const CorrectionOptions o = make_options(preserve_volume, axes, std::move(weights), std::move(fixed),
+                                                     constraints, target_volume, method, threads, allow_open, rounds);
             DeformResult r;
             {
               py::gil_scoped_release release;
@@ -103,7 +94,7 @@ void bind_deformer(py::module_& m) {
           },
           py::arg("control_points"), py::arg("preserve_volume") = true, py::arg("axes") = "xyz",
           py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
-          py::arg("constraints") = std::vector<std::tuple<Index, Vector3d, Vector3d>>{},
+          py::arg("constraints") = PyConstraints{},
           py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0,
           py::arg("allow_open") = false, py::arg("rounds") = 1);
 }

@@ -3,6 +3,8 @@
 // Inputs arrive as Eigen::Ref of row-major float64 / int32 matrices: the Python
 // layer has already converted and validated them, so no hidden copy happens here.
 
+#include <optional>
+
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -57,6 +59,28 @@ inline py::dict result_to_python(DeformResult&& r) {
   }
   d["steps"] = steps;
   return d;
+}
+
+/// The keyword arguments of every backend's deform(), as Python passes them.
+using PyConstraints = std::vector<std::tuple<Index, Vector3d, Vector3d>>;
+
+inline CorrectionOptions make_options(bool preserve_volume, const std::string& axes,
+                                      std::optional<Eigen::VectorXd> weights,
+                                      std::optional<std::vector<std::uint8_t>> fixed, const PyConstraints& constraints,
+                                      std::optional<double> target_volume, const std::string& method, int threads,
+                                      bool allow_open, int rounds) {
+  CorrectionOptions o;
+  o.preserve_volume = preserve_volume;
+  o.axes = parse_axes(axes);
+  if (weights) o.weights = std::move(*weights);
+  if (fixed) o.fixed = std::move(*fixed);
+  for (const auto& [v, p, t] : constraints) o.constraints.push_back({v, p, t});
+  if (target_volume) o.target_volume = *target_volume;
+  o.method = parse_method(method);
+  o.threads = threads;
+  o.allow_open = allow_open;
+  o.rounds = rounds;
+  return o;
 }
 
 void bind_lattice(py::module_& m);

@@ -738,73 +738,14 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   const BasisTables& T = cpu.tables();
   const Index N = m.N;
 
-  // --- options: the same checks and messages as Deformer::deform ----------------
-  VPFFD_CHECK(P.rows() == N, "deform", ": ", P.rows(), " control points, the lattice has ", N);
-  VPFFD_CHECK(P.allFinite(), "deform", ": control points contain NaN or Inf");
-  const bool correcting = opt.preserve_volume || !opt.constraints.empty();
-  if (correcting) VPFFD_CHECK(!opt.axes.empty(), "deform: axes is empty; name at least one of x, y, z");
-  VPFFD_CHECK(opt.rounds >= 1 && opt.rounds <= kMaxRounds, "deform: rounds is ", opt.rounds, "; expected 1..",
-              kMaxRounds);
-  for (int a : opt.axes) VPFFD_CHECK(a >= 0 && a < 3, "deform: axis ", a, " not in 0..2");
-  VectorXd inv_weight = VectorXd::Ones(N);
-  if (opt.weights.size() > 0) {
-    VPFFD_CHECK(opt.weights.size() == N, "deform: ", opt.weights.size(), " weights, expected one per control point (",
-                N, ")");
-    for (Index c = 0; c < N; ++c)
-      VPFFD_CHECK(std::isfinite(opt.weights[c]) && opt.weights[c] > 0, "deform: weight ", c, " is ", opt.weights[c],
-                  "; weights must be finite and positive (use fixed= to pin control points)");
-    inv_weight = opt.weights.cwiseInverse();
-  }
-  if (!opt.fixed.empty()) {
-    VPFFD_CHECK(Index(opt.fixed.size()) == N, "deform: fixed has ", opt.fixed.size(),
-                " entries, expected one per control point (", N, ")");
-    for (Index c = 0; c < N; ++c)
-      if (opt.fixed[c]) inv_weight[c] = 0.0;
-  }
-  if (opt.preserve_volume && !opt.allow_open) require_closed(cpu.edges(), "deform(preserve_volume=True)");
-  const bool measure = cpu.is_closed() || opt.allow_open;
-  const double target = std::isnan(opt.target_volume) ? cpu.rest_volume(true) : opt.target_volume;
-  VPFFD_CHECK(std::isfinite(target), "deform: target_volume is ", target, "; expected a finite number");
-
+  // --- options: the CPU backend's own checks, so both refuse the same input ------
+  const FramePlan pl = cpu.plan(P, opt);
+  const bool correcting = pl.correcting;
+  const bool measure = pl.measure;
+  const double target = pl.target;
+  const VectorXd& inv_weight = pl.inv_weight;
   const size_t nc = opt.constraints.size();
-  std::vector<SparseVec> rows(nc);
-  {
-    RowMatrixX3d pts(static_cast<Index>(nc), 3);
-    for (size_t s = 0; s < nc; ++s) {
-      const PointConstraint& pc = opt.constraints[s];
-      VPFFD_CHECK(pc.target.allFinite(), "deform: constraint ", s, " has a non-finite target");
-      if (pc.vertex >= 0) {
-        VPFFD_CHECK(pc.vertex < cpu.n_vertices(), "deform: constraint ", s, " names vertex ", pc.vertex,
-                    ", but there are ", cpu.n_vertices(), " vertices");
-        pts.row(s) = cpu.rest_vertices().row(pc.vertex);
-      } else {
-        VPFFD_CHECK(pc.point.allFinite(), "deform: constraint ", s, " has a non-finite source point");
-        pts.row(s) = pc.point.transpose();
-      }
-    }
-    const Embedding Ec = embed(L, pts, cpu.outside_policy(), 1, "constraint point");
-    for (size_t s = 0; s < nc; ++s) {
-      rows[s].index.resize(m.KKK);
-      rows[s].value.resize(m.KKK);
-      point_basis_entries(T, Ec, static_cast<Index>(s), rows[s].index.data(), rows[s].value.data());
-    }
-  }
-  auto row_dot = [&](const SparseVec& r, const Eigen::Ref<const VectorXd>& x) {
-    double s = 0;
-    for (size_t q = 0; q < r.index.size(); ++q) s += r.value[q] * x[r.index[q]];
-    return s;
-  };
-  std::vector<bool> corrected(3, false);
-  for (int a : opt.axes) corrected[a] = correcting;
-  const double diag = (L.box_max - L.box_min).norm();
-  for (size_t s = 0; s < nc; ++s)
-    for (int a = 0; a < 3; ++a)
-      if (!corrected[a]) {
-        const double S = row_dot(rows[s], P.col(a));
-        VPFFD_CHECK(std::abs(S - opt.constraints[s].target[a]) <= 1e-9 * diag, "deform: constraint ", s,
-                    " moves its point along ", axis_name[a], " (from ", S, " to ", opt.constraints[s].target[a],
-                    "), but ", axis_name[a], " is not among the corrected axes");
-      }
+  const std::vector<SparseVec>& rows = pl.rows;
   if (opt.preserve_volume && !cpu.is_closed())
     VPFFD_CHECK(opt.method == CoefficientMethod::Traversal,
                 "deform: method='csr' needs a closed mesh; use method='traversal' with allow_open");
