@@ -1,0 +1,126 @@
+// Times one volume-preserving frame (twist 90 deg + squash 0.6, 10^3 cubic
+// lattice, xyz correction) on an icosphere of the given subdivision level or a
+// binary little-endian triangle PLY, on 1 thread, on all threads and, when the
+// Vulkan backend is built and a device is found, on the GPU.
+//
+//   bench_frame [icosphere LEVEL | PLY_FILE] [REPEATS]
+//
+// Prints one line per backend: median milliseconds of the plain FFD and the xyz
+// frame, the volume error and, on Vulkan, the GPU time from timestamp queries.
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "vpffd/vpffd.h"
+#ifdef VPFFD_HAS_VULKAN
+#include "vpffd/backend/vulkan.h"
+#endif
+
+namespace {
+
+vpffd::TriMesh read_ply(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot open " + path);
+  std::string line;
+  long nv = -1, nf = -1;
+  while (std::getline(in, line) && line != "end_header") {
+    if (line.rfind("element vertex", 0) == 0) nv = std::stol(line.substr(15));
+    if (line.rfind("element face", 0) == 0) nf = std::stol(line.substr(13));
+    if (line.rfind("format", 0) == 0 && line.find("binary_little_endian") == std::string::npos)
+      throw std::runtime_error(path + ": only binary little-endian PLY (float xyz, uchar-int faces)");
+  }
+  if (nv <= 0 || nf <= 0) throw std::runtime_error(path + ": no vertices or faces");
+  vpffd::TriMesh m;
+  m.V.resize(nv, 3);
+  std::vector<float> xyz(3 * nv);
+  in.read(reinterpret_cast<char*>(xyz.data()), 12 * nv);
+  for (long i = 0; i < 3 * nv; ++i) m.V.data()[i] = xyz[i];
+  m.F.resize(nf, 3);
+  for (long f = 0; f < nf; ++f) {
+    unsigned char n = 0;
+    in.read(reinterpret_cast<char*>(&n), 1);
+    if (n != 3) throw std::runtime_error(path + ": not a triangle mesh");
+    in.read(reinterpret_cast<char*>(&m.F(f, 0)), 12);
+  }
+  if (!in) throw std::runtime_error(path + ": truncated");
+  return m;
+}
+
+double median_ms(const std::function<void()>& f, int repeats) {
+  f();  // warm-up
+  std::vector<double> t;
+  for (int r = 0; r < repeats; ++r) {
+    const auto a = std::chrono::steady_clock::now();
+    f();
+    t.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - a).count());
+  }
+  std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
+  return t[t.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    std::string what = argc > 1 ? argv[1] : "icosphere";
+    vpffd::TriMesh m;
+    if (what == "icosphere") {
+      m = vpffd::icosphere(argc > 2 ? std::atoi(argv[2]) : 7);
+      argv += 1;
+      argc -= 1;
+    } else {
+      m = read_ply(what);
+    }
+    const int repeats = argc > 2 ? std::max(1, std::atoi(argv[2])) : 9;
+    const vpffd::Vector3d lo = m.V.colwise().minCoeff().transpose(), hi = m.V.colwise().maxCoeff().transpose();
+    const vpffd::Vector3d pad = 0.05 * (hi - lo), c = 0.5 * (lo + hi);
+    const vpffd::Lattice L = vpffd::make_lattice(lo - pad, hi + pad, {10, 10, 10}, {3, 3, 3});
+    const vpffd::RowMatrixX3d P =
+        vpffd::twist(vpffd::scale(vpffd::rest_control_points(L), {1, 1, 0.6}, c), 0.5 * M_PI, 2, c);
+    std::printf("mesh %s: %ld vertices, %ld faces; lattice 10x10x10 cubic; median of %d\n", what.c_str(),
+                long(m.V.rows()), long(m.F.rows()), repeats);
+    std::printf("%-28s %10s %12s %12s %12s\n", "backend", "FFD ms", "xyz ms", "GPU xyz ms", "volume err");
+
+    vpffd::Deformer d(m.V, m.F, L);
+    for (int threads : {1, 0}) {
+      vpffd::CorrectionOptions o;
+      o.threads = threads;
+      vpffd::DeformResult r;
+      const double t_ffd = median_ms([&] { d.ffd(P, threads); }, repeats);
+      const double t_xyz = median_ms([&] { r = d.deform(P, o); }, repeats);
+      std::printf("%-28s %10.3f %12.3f %12s %12.1e\n",
+                  (std::string("cpu, ") + std::to_string(vpffd::resolve_threads(threads)) + " thread(s)").c_str(),
+                  t_ffd, t_xyz, "", std::abs(r.volume - r.target_volume) / r.target_volume);
+    }
+#ifdef VPFFD_HAS_VULKAN
+    std::string why;
+    for (const auto& dev : vpffd::vulkan::devices(&why)) {
+      if (!dev.suitable) continue;
+      vpffd::vulkan::VulkanDeformer g(m.V, m.F, L, vpffd::OutsidePolicy::Error, std::to_string(dev.index));
+      vpffd::CorrectionOptions o;
+      vpffd::DeformResult r;
+      std::vector<double> gpu;
+      const double t_xyz = median_ms(
+          [&] {
+            r = g.deform(P, o, false);
+            gpu.push_back(g.last_timings().gpu_total);
+          },
+          repeats);
+      std::nth_element(gpu.begin(), gpu.begin() + gpu.size() / 2, gpu.end());
+      std::printf("%-28s %10s %12.3f %12.3f %12.1e\n", ("vulkan, " + dev.name).substr(0, 28).c_str(), "", t_xyz,
+                  gpu[gpu.size() / 2], std::abs(r.volume - r.target_volume) / r.target_volume);
+    }
+    if (!why.empty()) std::printf("vulkan: %s\n", why.c_str());
+#endif
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_frame: %s\n", e.what());
+    return 1;
+  }
+}
