@@ -54,7 +54,9 @@ SHARED_MESHES = ROOT.parent / "shared" / "data" / "meshes"
 
 
 def read_ply(path):
-    """Binary little-endian PLY with float32 x, y, z and 'list uchar int' triangles (gzipped or not)."""
+    """Binary little-endian PLY with float32 x, y, z and 'list uchar int' triangles (gzipped or not).
+
+    Not vpffd.load_mesh: the GPU machine's build (bench/README.md) carries no OpenMesh."""
     raw = (gzip.open if str(path).endswith(".gz") else open)(path, "rb").read()
     end = raw.index(b"end_header\n") + len(b"end_header\n")
     header = raw[:end].decode("ascii").splitlines()

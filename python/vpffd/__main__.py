@@ -221,7 +221,7 @@ def _deform(args, bar) -> int:
         raise ValueError(f"{args.input} is not a closed mesh ({e['boundary_edges']} boundary, "
                          f"{e['nonmanifold_edges']} non-manifold, {e['misoriented_edges']} misoriented edges), "
                          f"so it has no volume to keep; use --preserve none for a plain FFD")
-    d = Deformer(mesh, lat, backend=args.backend)
+    d = Deformer(mesh, lat, backend=args.backend, outside=args.outside)
     bar(2, 4, "deforming")
     t0 = time.perf_counter()
     r = d.deform(P, preserve_volume=preserve, axes=args.preserve if preserve else "xyz", constraints=cons or None)
@@ -310,6 +310,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="control points per axis (default: 8x8x8)")
     p.add_argument("--degree", type=int, default=3, help="B-spline degree, 1..5")
     p.add_argument("--padding", type=_finite, default=0.05, help="lattice margin, in box extents")
+    p.add_argument("--outside", choices=["error", "extrapolate"], default="error",
+                   help="points outside the lattice (--drag sources): refuse, or continue the boundary "
+                        "polynomials")
     p.add_argument("--twist", type=_finite, metavar="DEG", help="twist the top by DEG degrees about --axis")
     p.add_argument("--bend", type=_finite, metavar="DEG", help="bend the --axis extent into an arc of DEG degrees")
     p.add_argument("--taper", type=_finite, metavar="FACTOR", help="scale the top's cross-section by FACTOR")

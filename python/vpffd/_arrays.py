@@ -77,7 +77,10 @@ def per_control_point(a, n: int, shape3: tuple, name: str, dtype) -> np.ndarray:
 
 
 def vector3(a, name: str) -> np.ndarray:
-    arr = np.asarray(a, dtype=np.float64) if not isinstance(a, np.ndarray) else a
+    """(3,) float64 copy of ``a``; raises TypeError/InvalidInputError naming ``name``."""
+    arr = np.asarray(a)
+    if arr.dtype == object or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise TypeError(f"{name}: expected 3 real numbers, got {a!r}")
     if arr.shape != (3,):
         raise InvalidInputError(f"{name}: expected 3 numbers, got shape {np.shape(a)}")
     arr = np.array(arr, dtype=np.float64)

@@ -446,6 +446,11 @@ def run_animation(mesh, lattice: Lattice, animator, frames=24, axes: str = "xyz"
     """
     if deformer is None:
         deformer = Deformer(mesh, lattice, backend=backend)
+    elif not isinstance(deformer, Deformer) or deformer.lattice is not lattice or (
+            Mesh.from_any(mesh) is not deformer.mesh and not (
+                np.array_equal(Mesh.from_any(mesh).vertices, deformer.mesh.vertices)
+                and np.array_equal(Mesh.from_any(mesh).faces, deformer.mesh.faces))):
+        raise InvalidInputError("run_animation: deformer must be a Deformer of this mesh and this lattice")
     if np.ndim(frames) == 0:
         if not hasattr(animator, "times"):
             raise InvalidInputError("run_animation: give the frame times for an animator without times()")
@@ -472,5 +477,6 @@ def run_animation(mesh, lattice: Lattice, animator, frames=24, axes: str = "xyz"
         if progress is not None:
             progress(f + 1, T)
     return AnimationResult(times=times, control_points=cps, corrected_points=corrected, vertices=verts,
-                           volumes=vols, volumes_plain=plain, rest_volume=deformer.rest_volume,
+                           volumes=vols, volumes_plain=plain,
+                           rest_volume=deformer.rest_volume if deformer.mesh.is_closed else float("nan"),
                            preserve=preserve, axes=axes if preserve else "", faces=np.array(deformer.mesh.faces))

@@ -6,7 +6,6 @@ times of the plain FFD, one axis correction and the full xyz frame, for the
 """
 from __future__ import annotations
 
-import gzip
 import json
 import os
 import platform
@@ -17,41 +16,11 @@ import numpy as np
 
 from . import _core, edits, shapes
 from .deformer import Deformer
+from .io import load_mesh
 from .lattice import Lattice
 from .mesh import Mesh
 
 SHARED_MESHES = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "meshes"
-
-
-def read_binary_ply(path) -> Mesh:
-    """Reads the binary little-endian triangle PLY files of the shared mesh set
-    (float32 x, y, z; ``list uchar int`` faces), gzipped or not."""
-    path = Path(path)
-    opener = gzip.open if path.suffix == ".gz" else open
-    with opener(path, "rb") as f:
-        data = f.read()
-    end = data.index(b"end_header\n") + len(b"end_header\n")
-    header = data[:end].decode("ascii").splitlines()
-    if "format binary_little_endian 1.0" not in header:
-        raise ValueError(f"{path}: only binary little-endian PLY is supported here")
-    nv = nf = 0
-    vprops = []
-    for line in header:
-        w = line.split()
-        if w[:2] == ["element", "vertex"]:
-            nv, cur = int(w[2]), "v"
-        elif w[:2] == ["element", "face"]:
-            nf, cur = int(w[2]), "f"
-        elif w and w[0] == "property" and cur == "v":
-            vprops.append(w[1])
-    if vprops != ["float"] * 3:
-        raise ValueError(f"{path}: expected float x, y, z vertices, got {vprops}")
-    V = np.frombuffer(data, dtype="<f4", count=3 * nv, offset=end).reshape(nv, 3)
-    rec = np.dtype([("n", "u1"), ("i", "<i4", (3,))])
-    Fr = np.frombuffer(data, dtype=rec, count=nf, offset=end + 12 * nv)
-    if not (Fr["n"] == 3).all():
-        raise ValueError(f"{path}: not all faces are triangles")
-    return Mesh(V.astype(np.float64), Fr["i"])
 
 
 def _median_ms(fn, repeats: int) -> float:
@@ -103,7 +72,7 @@ def default_meshes(include_shared: bool = True) -> list:
         for f in ["bunny_watertight.ply", "armadillo.ply", "horse.ply", "dragon_vrip_welded.ply.gz"]:
             p = SHARED_MESHES / f
             if p.exists():
-                out.append((f.split(".")[0], lambda p=p: read_binary_ply(p)))
+                out.append((f.split(".")[0], lambda p=p: load_mesh(p)))
     return out
 
 

@@ -7,6 +7,9 @@ from . import _arrays, _core
 
 InvalidInputError = _core.InvalidInputError
 
+# 100 M control points are 2.4 GB per (N, 3) array; beyond that a lattice is a mistake.
+_MAX_CONTROL_POINTS = 100_000_000
+
 
 def _triple(x, name, kind=int):
     if np.ndim(x) == 0:
@@ -57,6 +60,10 @@ class Lattice:
             if n < d + 1:
                 raise InvalidInputError(
                     f"Lattice: shape {n} along {'xyz'[a]} is too small for degree {d} (need at least {d + 1})")
+        n_total = int(np.prod([int(n) for n in shape], dtype=object))
+        if n_total > _MAX_CONTROL_POINTS:
+            raise InvalidInputError(f"Lattice: shape {shape} has {n_total:,} control points; at most "
+                                    f"{_MAX_CONTROL_POINTS:,} are supported (each costs 24 bytes per array)")
         if knots is None:
             knots = [_core.clamped_uniform_knots(n, d) for n, d in zip(shape, degree)]
         else:
@@ -81,6 +88,8 @@ class Lattice:
         if hasattr(points, "vertices"):
             points = points.vertices
         P = _arrays.points(points, "Lattice.around: points")
+        if isinstance(padding, bool) or not isinstance(padding, (int, float, np.integer, np.floating)):
+            raise TypeError(f"Lattice.around: padding must be a number, got {type(padding).__name__}")
         if not (np.isfinite(padding) and padding >= 0):
             raise InvalidInputError(f"Lattice.around: padding must be finite and >= 0, got {padding}")
         lo, hi = P.min(axis=0), P.max(axis=0)

@@ -290,3 +290,65 @@ def test_rounds_spread_the_correction_evenly(sphere, lat):
     assert abs(widths[4][0] / widths[4][1] - 1) < 0.5 * abs(widths[1][0] / widths[1][1] - 1)
     with pytest.raises(InvalidInputError, match="rounds"):
         d.deform(P, rounds=0)
+
+
+def test_weights_scale_free_and_overflow(sphere, lat):
+    d = vpffd.Deformer(sphere, lat)
+    P = vpffd.squash(lat.control_points, 0.5)
+    r1 = d.deform(P)
+    for w in (1e300, 1e-300, 3.5):
+        rw = d.deform(P, weights=np.full(lat.shape, w))
+        np.testing.assert_allclose(rw.vertices, r1.vertices, atol=1e-13)
+    with pytest.raises(InvalidInputError, match="overflows"):
+        d.deform(P, weights=np.full(lat.shape, 1e-320))
+    with pytest.raises(SolverError, match="overflow"):
+        d.deform(P * 1e155)
+
+
+def test_numeric_range_of_lattices_and_points(sphere):
+    with pytest.raises(InvalidInputError, match="repeated more than"):
+        vpffd.Lattice([-2] * 3, [2] * 3, shape=(5, 4, 4), degree=3,
+                      knots=[[0, 0, 0, 0, 1, 1, 1, 1, 1], None, None][:1] * 3)
+    with pytest.raises(InvalidInputError, match="extent"):
+        vpffd.Lattice([-1e308] * 3, [1e308] * 3, shape=4)
+    with pytest.raises(InvalidInputError, match="extent"):
+        vpffd.Lattice([0] * 3, [1e-320] * 3, shape=4)
+    lat = vpffd.Lattice([-2] * 3, [2] * 3, shape=4)
+    with pytest.raises(InvalidInputError, match="too far"):
+        lat.deform_points([[1e300, 0, 0]], outside="extrapolate")
+    with pytest.raises(InvalidInputError, match="at most"):
+        vpffd.Lattice([-2] * 3, [2] * 3, shape=(2 ** 30, 4, 4))
+    with pytest.raises(InvalidInputError, match="not finite"):
+        vpffd._core.basis_functions_fast(vpffd._core.clamped_uniform_knots(5, 3), 3, [float("nan"), 0.5])
+    with pytest.raises(InvalidInputError, match="refers to vertex"):
+        vpffd._core.signed_volume(sphere.vertices, np.array([[0, 1, 2_000_000_000]], np.int32), np.zeros(3))
+
+
+def test_argument_types_are_named(sphere, lat):
+    d = vpffd.Deformer(sphere, lat)
+    with pytest.raises(TypeError, match="target"):
+        d.deform(constraints=[(0, "abc")])
+    with pytest.raises(TypeError, match="target_volume"):
+        d.deform(target_volume="3")
+    with pytest.raises(InvalidInputError, match="axis"):
+        d.volume_coefficients(sphere.vertices, True)
+    with pytest.raises(InvalidInputError, match="rounds"):
+        d.deform(rounds=10 ** 10)
+    with pytest.raises(InvalidInputError, match="threads"):
+        vpffd.Deformer(sphere, lat, threads=10 ** 10)
+    with pytest.raises(TypeError, match="padding"):
+        vpffd.Lattice.around(sphere, padding="a")
+    with pytest.raises(InvalidInputError, match=r"\(\.\.\., 3\)"):
+        vpffd.twist(np.arange(24.0).reshape(4, 6), 10)
+    r = d.deform(target_volume=0.0, axes="z")
+    assert r.volume_error == float("inf") or r.volume_error < 1e-9
+    assert 100 < d.bytes_per_vertex < 250  # embedding, orders, faces, face lists, rest vertices
+
+
+def test_open_mesh_animation_without_preservation(sphere, lat):
+    m = vpffd.Mesh(sphere.vertices, sphere.faces[:-1])
+    anim = vpffd.run_animation(m, lat, vpffd.animate.Twist(lat, angle=90), frames=3, preserve=False)
+    assert np.isnan(anim.rest_volume)
+    with pytest.raises(InvalidInputError, match="deformer"):
+        vpffd.run_animation(sphere, lat, vpffd.animate.Twist(lat, angle=90), frames=3,
+                            deformer=vpffd.Deformer(vpffd.shapes.icosphere(2), lat))

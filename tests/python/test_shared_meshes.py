@@ -3,13 +3,12 @@ import numpy as np
 import pytest
 
 import vpffd
-from vpffd.benchmark import read_binary_ply
 
 
 @pytest.mark.parametrize("name,volume", [("sphere_ico4.ply", 4.17973892), ("bunny_watertight.ply", 0.745450755),
                                          ("horse.ply", 0.000263418277)])
 def test_real_mesh_volume_and_correction(shared_meshes, name, volume):
-    m = read_binary_ply(shared_meshes / name)
+    m = vpffd.load_mesh(shared_meshes / name)
     assert m.volume == pytest.approx(volume, rel=1e-6)  # file stats were computed in float32 sources
     lat = vpffd.Lattice.around(m, shape=(8, 8, 8), degree=3)
     d = vpffd.Deformer(m, lat)
@@ -22,6 +21,6 @@ def test_real_mesh_volume_and_correction(shared_meshes, name, volume):
 
 
 def test_open_scan_is_refused(shared_meshes):
-    m = read_binary_ply(shared_meshes / "BADINPUT_bunny_stanford_zipper_holes.ply")
+    m = vpffd.load_mesh(shared_meshes / "BADINPUT_bunny_stanford_zipper_holes.ply")
     with pytest.raises(vpffd.InvalidInputError, match="223 boundary edges"):
         m.volume

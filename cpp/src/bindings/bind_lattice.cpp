@@ -63,6 +63,7 @@ void bind_lattice(py::module_& m) {
         RowMatrixXd B = RowMatrixXd::Zero(u.size(), n);
         double N[kMaxDegree + 1];
         for (size_t q = 0; q < u.size(); ++q) {
+          VPFFD_CHECK(std::isfinite(u[q]), "basis_functions_fast: u[", q, "] is not finite");
           const int s = find_span(t, n, degree, u[q]);
           const double tau = (u[q] - t[s]) * sp.inv_width[s - degree];
           eval_span(sp.span_coef(s), degree + 1, tau, N);

@@ -10,6 +10,7 @@ void bind_mesh(py::module_& m) {
   m.def(
       "edge_report",
       [](RefF F) {
+        VPFFD_CHECK(F.rows() == 0 || F.minCoeff() >= 0, "edge_report: negative vertex index");
         const EdgeReport r = edge_report(F);
         py::dict d;
         d["edges"] = r.edges;
@@ -22,11 +23,15 @@ void bind_mesh(py::module_& m) {
   m.def(
       "signed_volume",
       [](RefV V, RefF F, Vector3d origin) {
+        validate_mesh(V, F, "signed_volume");
         py::gil_scoped_release release;
         return signed_volume(V, F, origin);
       },
       py::arg("vertices"), py::arg("faces"), py::arg("origin") = Vector3d::Zero());
-  m.def("require_closed", [](RefF F, const char* where) { require_closed(edge_report(F), where); });
+  m.def("require_closed", [](RefF F, const char* where) {
+    VPFFD_CHECK(F.rows() == 0 || F.minCoeff() >= 0, where, ": negative vertex index");
+    require_closed(edge_report(F), where);
+  });
   m.def(
       "icosphere",
       [](int s, double r) {

@@ -45,6 +45,11 @@ inline void validate_knots(const std::vector<double>& t, int n, int d, char axis
     if (i > 0) VPFFD_CHECK(t[i] >= t[i - 1], "lattice: knots along ", axis, " decrease at index ", i);
   }
   VPFFD_CHECK(t[d] < t[n], "lattice: empty parameter domain along ", axis, " (t[", d, "] == t[", n, "])");
+  // More than d+1 equal end knots leave a control plane with no influence at all.
+  VPFFD_CHECK(t[d + 1] > t[0], "lattice: the first knot along ", axis, " is repeated more than degree + 1 = ",
+              d + 1, " times");
+  VPFFD_CHECK(t[n - 1] < t[n + d], "lattice: the last knot along ", axis, " is repeated more than degree + 1 = ",
+              d + 1, " times");
   for (int i = d + 1; i < n;) {
     int j = i;
     while (j + 1 < n && t[j + 1] == t[i]) ++j;

@@ -24,6 +24,24 @@ struct SparseVec {
   std::vector<double> value;
 };
 
+/// Control points that may move (inverse weight > 0).
+inline Index count_free_points(const VectorXd& inv_weight) {
+  Index free_points = 0;
+  for (Index c = 0; c < inv_weight.size(); ++c) free_points += inv_weight[c] > 0;
+  return free_points;
+}
+
+/// @throws SolverError when an axis step has more conditions (the volume row if
+/// `volume`, and `n_constraints` rows) than free control points. Shared so that
+/// every backend, and a check made before any step runs, says the same.
+inline void check_free_points(bool volume, size_t n_constraints, Index free_points, char axis) {
+  const Index m = (volume ? 1 : 0) + static_cast<Index>(n_constraints);
+  if (m > free_points)
+    throw SolverError(detail::concat("correction along ", axis, ": ", m, " conditions (", volume ? "volume + " : "",
+                                     n_constraints, " point constraints) but only ", free_points,
+                                     " free control points"));
+}
+
 /// One axis step. `alpha` may be null (no volume row). `inv_weight` has N
 /// entries, 0 for fixed control points.
 /// @param[out] sum_squares  alpha^T W^-1 alpha (0 without a volume row)
@@ -44,20 +62,23 @@ inline VectorXd solve_axis_offsets(const VectorXd* alpha, double volume_rhs, con
     for (size_t q = 0; q < rows[s].index.size(); ++q) R(nv + s, rows[s].index[q]) += rows[s].value[q];
     b[nv + s] = rows_rhs[s];
   }
-  Index free_points = 0;
-  for (Index c = 0; c < N; ++c) free_points += inv_weight[c] > 0;
-  if (m > free_points)
-    throw SolverError(detail::concat("correction along ", axis, ": ", m, " conditions (", nv ? "volume + " : "",
-                                     rows.size(), " point constraints) but only ", free_points,
-                                     " free control points"));
-  const RowMatrixXd RW = R * inv_weight.asDiagonal();
+  check_free_points(alpha != nullptr, rows.size(), count_free_points(inv_weight), axis);
+  if (!R.allFinite() || !b.allFinite())
+    throw SolverError(detail::concat("correction along ", axis,
+                                     ": the coefficients or targets overflow double precision (control points, "
+                                     "mesh or target volume too large)"));
+  // Scaling all weights alike does not change the minimiser; scaling them to a
+  // largest inverse of 1 keeps the sums below in range whatever the user's units.
+  const double wmax = inv_weight.maxCoeff();
+  const VectorXd iw = inv_weight / wmax;
+  const RowMatrixXd RW = R * iw.asDiagonal();
   const Eigen::MatrixXd G = RW * R.transpose();
-  if (sum_squares) *sum_squares = alpha ? G(0, 0) : 0.0;
+  if (sum_squares) *sum_squares = alpha ? G(0, 0) * wmax : 0.0;
   for (int p = 0; p < m; ++p) {
-    // A zero row means nothing free can move that condition. The scale is the
-    // row's norm without the weights, so the test is relative.
+    // A zero row means nothing free can move that condition; relative to the
+    // row's unweighted norm, so the test does not depend on units.
     const double scale = R.row(p).squaredNorm();
-    if (!(G(p, p) > 1e-300) || !(G(p, p) > 1e-24 * scale * inv_weight.maxCoeff())) {
+    if (!(scale > 0) || !(G(p, p) > 1e-24 * scale)) {
       if (alpha && p == 0)
         throw SolverError(detail::concat("correction along ", axis,
                                          ": the volume coefficients of the free control points are all zero "

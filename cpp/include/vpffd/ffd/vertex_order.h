@@ -16,6 +16,17 @@
 
 namespace vpffd {
 
+/// Stable counting sort of items by small integer keys in [0, n_keys).
+/// @returns order: position -> item
+inline std::vector<std::int32_t> counting_sort(const std::vector<std::int32_t>& key, Index n_keys) {
+  std::vector<Index> start(n_keys + 1, 0);
+  for (std::int32_t k : key) ++start[k + 1];
+  for (Index c = 0; c < n_keys; ++c) start[c + 1] += start[c];
+  std::vector<std::int32_t> order(key.size());
+  for (size_t i = 0; i < key.size(); ++i) order[start[key[i]]++] = static_cast<std::int32_t>(i);
+  return order;
+}
+
 /// Stable counting sort of the points by the row of their first control point.
 /// @returns order: processing position -> original index
 inline std::vector<std::int32_t> cell_order(const BasisTables& T, const Embedding& E) {
@@ -27,12 +38,7 @@ inline std::vector<std::int32_t> cell_order(const BasisTables& T, const Embeddin
                 k0 = E.span[2][v] - T.poly[2].degree;
     cell[v] = static_cast<std::int32_t>((i0 * T.dims[1] + j0) * T.dims[2] + k0);
   }
-  std::vector<Index> start(N + 1, 0);
-  for (Index v = 0; v < n; ++v) ++start[cell[v] + 1];
-  for (Index c = 0; c < N; ++c) start[c + 1] += start[c];
-  std::vector<std::int32_t> order(n);
-  for (Index v = 0; v < n; ++v) order[start[cell[v]]++] = static_cast<std::int32_t>(v);
-  return order;
+  return counting_sort(cell, N);
 }
 
 /// The inverse permutation: original index -> processing position.
@@ -63,12 +69,7 @@ inline std::vector<std::int32_t> face_order(const Eigen::Ref<const RowMatrixX3i>
   const Index nf = F.rows();
   std::vector<std::int32_t> key(nf);
   for (Index f = 0; f < nf; ++f) key[f] = std::min({rank[F(f, 0)], rank[F(f, 1)], rank[F(f, 2)]});
-  std::vector<Index> start(rank.size() + 1, 0);
-  for (Index f = 0; f < nf; ++f) ++start[key[f] + 1];
-  for (size_t v = 0; v < rank.size(); ++v) start[v + 1] += start[v];
-  std::vector<std::int32_t> order(nf);
-  for (Index f = 0; f < nf; ++f) order[start[key[f]]++] = static_cast<std::int32_t>(f);
-  return order;
+  return counting_sort(key, static_cast<Index>(rank.size()));
 }
 
 }  // namespace vpffd

@@ -88,6 +88,18 @@ inline Embedding embed(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X
         ++n_bad[c];
       }
       const Vector3d u = parameter_of(L, x);
+      // Extrapolated polynomial pieces grow as distance^degree: a thousand box
+      // extents away they are no deformation anyone wants, and further away they
+      // overflow. Such points are refused with the non-finite ones.
+      bool too_far = !u.allFinite();
+      for (int a = 0; a < 3 && !too_far; ++a) {
+        const double w = L.domain_hi(a) - L.domain_lo(a);
+        too_far = u[a] < L.domain_lo(a) - 1e3 * w || u[a] > L.domain_hi(a) + 1e3 * w;
+      }
+      if (too_far) {
+        if (first_nan[c] < 0) first_nan[c] = v;
+        continue;
+      }
       for (int a = 0; a < 3; ++a) {
         double ua = u[a];
         if (policy == OutsidePolicy::Error) ua = std::clamp(ua, L.domain_lo(a), L.domain_hi(a));
@@ -98,7 +110,8 @@ inline Embedding embed(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X
     }
   });
   for (int c = 0; c < chunks; ++c)
-    VPFFD_CHECK(first_nan[c] < 0, "embed: ", what, " ", first_nan[c], " is not finite");
+    VPFFD_CHECK(first_nan[c] < 0, "embed: ", what, " ", first_nan[c],
+                " is not finite, or too far from the lattice (over 1000 box extents)");
   if (policy == OutsidePolicy::Error) {
     Index total = 0, first = -1;
     for (int c = 0; c < chunks; ++c) {

@@ -45,6 +45,11 @@ inline void validate_lattice(const Lattice& L) {
                 " is not finite");
     VPFFD_CHECK(L.box_max[a] > L.box_min[a], "lattice: zero or negative extent along ", axes[a], " (",
                 L.box_min[a], " .. ", L.box_max[a], ")");
+    // The parameter map divides by the extent: both it and its inverse must be finite.
+    const double ext = L.box_max[a] - L.box_min[a];
+    const double scale = (L.domain_hi(a) - L.domain_lo(a)) / ext;
+    VPFFD_CHECK(std::isfinite(ext) && std::isfinite(scale) && scale > 0 && std::isnormal(ext), "lattice: extent ",
+                ext, " along ", axes[a], " is out of the range double precision can map");
   }
   VPFFD_CHECK(L.n_control_points() < (Index(1) << 31), "lattice: too many control points (",
               L.n_control_points(), ")");

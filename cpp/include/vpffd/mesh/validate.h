@@ -19,6 +19,8 @@ inline void validate_mesh(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::
   VPFFD_CHECK(V.rows() > 0, where, ": the mesh has no vertices");
   VPFFD_CHECK(F.rows() > 0, where, ": the mesh has no faces");
   VPFFD_CHECK(V.rows() < (Index(1) << 31), where, ": too many vertices (", V.rows(), ")");
+  // Vertex-face lists hold 3 #F entries with 32-bit offsets.
+  VPFFD_CHECK(3 * F.rows() < (Index(1) << 31), where, ": too many faces (", F.rows(), "; at most 715,827,882)");
   for (Index v = 0; v < V.rows(); ++v)
     VPFFD_CHECK(std::isfinite(V(v, 0)) && std::isfinite(V(v, 1)) && std::isfinite(V(v, 2)), where, ": vertex ", v,
                 " has a non-finite coordinate (", V(v, 0), ", ", V(v, 1), ", ", V(v, 2), ")");
