@@ -96,8 +96,8 @@ def _resolve_backend(backend: str, threads, device=None, n_vertices=None):
     if backend != "vulkan" and selector is not None:
         raise InvalidInputError(f"device: only the 'vulkan' backend takes a device, not {backend!r}")
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
-                                or threads < 1):
-        raise InvalidInputError(f"threads: expected a positive integer or None, got {threads!r}")
+                                or not 1 <= threads <= 4096):
+        raise InvalidInputError(f"threads: expected an integer in 1..4096 or None, got {threads!r}")
     n = 1 if backend == "serial" else int(threads or 0)
     if backend == "vulkan" and selector is None:
         selector = env or ""
@@ -124,6 +124,8 @@ class DeformResult:
     steps : list of dict
         per axis step: axis, volume_before, share, sum_squares, max_offset.
     backend, method : str
+        the backend and the coefficient method that actually ran ("traversal" on
+        "vulkan", whatever was asked).
     """
     vertices: np.ndarray
     control_points: np.ndarray
@@ -139,12 +141,15 @@ class DeformResult:
 
     @property
     def volume_error(self) -> float:
-        """|volume - target| / |target| (NaN without a target)."""
-        return abs(self.volume - self.target_volume) / abs(self.target_volume)
+        """|volume - target| / |target| (NaN without a target, inf for a zero target)."""
+        return float(np.float64(abs(self.volume - self.target_volume)) / np.float64(abs(self.target_volume))) \
+            if self.target_volume != 0 else (0.0 if self.volume == 0 else float("inf"))
 
     @property
     def volume_change_before(self) -> float:
         """Relative volume change of the plain FFD against the rest volume."""
+        if self.rest_volume == 0:
+            return float("nan")
         return (self.volume_before - self.rest_volume) / self.rest_volume
 
 
@@ -247,8 +252,8 @@ class Deformer:
         """(alpha, volume): the N coefficients of ``axis`` ('x', 'y', 'z' or 0..2) for
         the mesh with the given current vertices (V, 3), and its volume. Moving the
         control points by delta along that axis changes the volume by alpha @ delta."""
-        a = {"x": 0, "y": 1, "z": 2}.get(axis, axis)
-        if a not in (0, 1, 2):
+        a = {"x": 0, "y": 1, "z": 2}.get(axis, axis) if isinstance(axis, str) else axis
+        if isinstance(a, (bool, np.bool_)) or a not in (0, 1, 2):
             raise InvalidInputError(f"axis: expected 'x', 'y', 'z' or 0..2, got {axis!r}")
         X = _arrays.points(vertices, "volume_coefficients: vertices", rows=self.mesh.n_vertices)
         return self._d.volume_coefficients(X, a, method, self._threads)
@@ -278,7 +283,9 @@ class Deformer:
         target_volume : float, optional
             default: the rest volume.
         method : {"traversal", "csr"}
-            how the coefficients are computed (same result to ~1e-12).
+            how the coefficients are computed (same result to ~1e-12). The
+            "vulkan" backend always runs the traversal: it accepts "csr" (refused
+            on an open mesh, as on the CPU) and reports ``method="traversal"``.
         rounds : int
             cycle through ``axes`` this many times, each step taking an equal share
             of the volume still missing: 1 is the paper's method; 3-4 rounds spread
@@ -320,8 +327,13 @@ class Deformer:
                 cons.append((-1, _arrays.vector3(src, f"constraints[{i}] source"), tgt))
         if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)):
             raise TypeError(f"rounds: expected an integer, got {type(rounds).__name__}")
+        if not 1 <= rounds <= 64:
+            raise InvalidInputError(f"deform: rounds is {rounds}; expected 1..64")
         tv = None
         if target_volume is not None:
+            if isinstance(target_volume, (bool, np.bool_)) or not isinstance(
+                    target_volume, (int, float, np.integer, np.floating)):
+                raise TypeError(f"target_volume: expected a number, got {type(target_volume).__name__}")
             tv = float(target_volume)
             if not np.isfinite(tv):
                 raise InvalidInputError(f"target_volume: expected a finite number, got {target_volume}")
@@ -342,7 +354,8 @@ class Deformer:
             offsets=r["offsets"].reshape(*shape, 3),
             volume=r["volume"], volume_before=r["volume_before"], target_volume=r["target_volume"],
             rest_volume=rest, constraint_error=r["constraint_error"], steps=r["steps"],
-            backend=self.backend, method=method)
+            # The device always runs the traversal: report what ran, not what was asked.
+            backend=self.backend, method="traversal" if self._vk is not None else method)
 
     @property
     def device(self):

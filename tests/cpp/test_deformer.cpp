@@ -228,3 +228,68 @@ TEST(Deformer, ThreadCountDoesNotChangeResults) {
   EXPECT_EQ((a.vertices - b.vertices).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ(a.volume, b.volume);
 }
+
+// The pieces of a frame that every backend shares (FramePlan, constraint_steps,
+// constraint_error) give what Deformer::deform gives.
+TEST(Deformer, SharedFramePieces) {
+  const TriMesh m = icosphere(2);
+  const Lattice L = lattice_around(m.V, {4, 5, 4}, 2);
+  Deformer D(m.V, m.F, L);
+  const Index N = L.n_control_points();
+  const RowMatrixX3d P = squashed(L, 0.7);
+  CorrectionOptions o;
+  o.preserve_volume = false;
+  o.rounds = 2;
+  o.axes = {2, 0};
+  o.fixed.assign(N, 0);
+  o.fixed[0] = o.fixed[5] = 1;
+  const RowMatrixX3d X = D.ffd(P);
+  o.constraints.push_back({3, Vector3d::Zero(), X.row(3).transpose() + Vector3d(0.02, 0, -0.01)});
+  o.constraints.push_back({-1, Vector3d(0.1, 0.2, -0.3), Vector3d(0.12, 0.2, -0.35)});
+  const FramePlan pl = D.plan(P, o);
+  EXPECT_EQ(pl.free_points, N - 2);
+  DeformResult mine;
+  mine.offsets = RowMatrixX3d::Zero(N, 3);
+  constraint_steps(pl, P, o, mine);
+  const DeformResult r = D.deform(P, o);
+  ASSERT_EQ(mine.steps.size(), 4u);
+  ASSERT_EQ(r.steps.size(), 4u);
+  EXPECT_EQ((mine.offsets - r.offsets).cwiseAbs().maxCoeff(), 0.0);
+  for (size_t s = 0; s < 4; ++s) EXPECT_EQ(mine.steps[s].axis, r.steps[s].axis);
+  EXPECT_EQ(constraint_error(pl.rows, P + r.offsets, o.constraints), r.constraint_error);
+  EXPECT_LE(r.constraint_error, 1e-12);
+  EXPECT_GT(constraint_error(pl.rows, P, o.constraints), 1e-3);  // the plain FFD misses them
+  // The vertices follow the offsets: the constrained vertex reaches its target.
+  EXPECT_LE((r.vertices.row(3).transpose() - o.constraints[0].target).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+// plan() makes the first step's checks, so a frame that cannot be corrected fails
+// before any work and with the message deform() always gave.
+TEST(Deformer, PlanRefusesWhatTheFirstStepWould) {
+  const TriMesh m = icosphere(2);
+  const Lattice L = lattice_around(m.V, {4, 4, 4}, 3);
+  Deformer D(m.V, m.F, L);
+  const RowMatrixX3d P = squashed(L, 0.5);
+  CorrectionOptions many;
+  many.axes = {1, 0, 2};
+  for (int i = 0; i < 64; ++i) many.constraints.push_back({i, Vector3d::Zero(), P.row(0).transpose()});
+  try {
+    D.plan(P, many);
+    FAIL() << "plan accepted 65 conditions for 64 control points";
+  } catch (const SolverError& e) {
+    EXPECT_STREQ(e.what(), "correction along y: 65 conditions (volume + 64 point constraints) but only 64 free "
+                           "control points");
+  }
+  many.preserve_volume = false;  // 64 rows for 64 points: allowed by the count
+  EXPECT_EQ(D.plan(P, many).free_points, 64);
+
+  // method='csr' on an open mesh is refused only where a volume is corrected.
+  RowMatrixX3i Fo = m.F.topRows(m.F.rows() - 1);
+  Deformer open(m.V, Fo, L);
+  CorrectionOptions csr;
+  csr.method = CoefficientMethod::Csr;
+  csr.allow_open = true;
+  EXPECT_THROW(open.plan(P, csr), InvalidInputError);
+  csr.preserve_volume = false;
+  EXPECT_NO_THROW(open.plan(P, csr));
+}

@@ -64,7 +64,12 @@ void bind_vulkan(py::module_& m) {
            })
       .def("last_timings",
            [](const VulkanDeformer& d) {
-             const vulkan::FrameTimings& t = d.last_timings();
+             vulkan::FrameTimings t;
+             {
+               // A frame of another thread may hold the deformer's lock.
+               py::gil_scoped_release release;
+               t = d.last_timings();
+             }
              py::dict o;
              o["gpu_total_ms"] = t.gpu_total;
              o["gpu_ffd_ms"] = t.gpu_ffd;

@@ -123,6 +123,9 @@ struct VulkanDeformer::Impl {
   };
   Buffer buf[kNumBuf];
   Buffer up_P, up_invw, up_frame, up_delta, up_cons_i, up_cons_d, rb_delta, rb_stats, rb_red, rb_X;
+  // The vertices before the frame now running: a frame whose failure is only known
+  // after it ran (see deform) puts them back, so a failed frame never becomes visible.
+  Buffer x_good;
 
   VkDescriptorSetLayout dsl = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
@@ -158,7 +161,7 @@ struct VulkanDeformer::Impl {
   std::mutex frame_mutex;  // one frame or read-back at a time per deformer
   bool pending = false;    // a submission whose fence was not waited for (after an error)
   VectorXd invw_uploaded;  // inverse weights on the device (empty: none yet)
-  FrameTimings timings;
+  FrameTimings timings;    // of the last frame that ran on the device (guarded by frame_mutex)
 
   ~Impl() {
     if (!d) return;
@@ -275,7 +278,30 @@ struct VulkanDeformer::Impl {
   void build(const std::string& selector);
   void create_pipelines(const std::array<std::int32_t, 11>& spec);
 
-  // ---- frames --------------------------------------------------------------------
+  // ---- frames (all with frame_mutex held) -----------------------------------------
+  // #V x 3 device vertices in the input order.
+  RowMatrixX3d read_vertices() {
+    if (!rb_X.handle()) rb_X = Buffer(*dev, 12 * nv, Buffer::Readback, "vertices (read-back)");
+    begin();
+    copy(buf[bX], rb_X, 12 * nv);
+    host_barrier(cmd);
+    submit_and_wait();
+    const float* x = static_cast<const float*>(rb_X.mapped());
+    RowMatrixX3d out(nv, 3);
+    for (Index i = 0; i < nv; ++i)
+      for (int a = 0; a < 3; ++a) out(order[i], a) = double(x[3 * i + a]) + origin[a];
+    return out;
+  }
+
+  // After a frame with device steps failed: its vertices back to those before it.
+  void restore_vertices() {
+    begin();
+    barrier(cmd);
+    copy(x_good, buf[bX], 12 * nv);
+    barrier(cmd);
+    submit_and_wait();
+  }
+
   // Uploads the constraint block (into `cmd`, begun) when the rows or the weights changed.
   bool update_constraints(const std::vector<SparseVec>& rows, const VectorXd& inv_weight);
   const Recorded& frame_commands(const Shape& shape);
@@ -448,6 +474,7 @@ void VulkanDeformer::Impl::build(const std::string& selector) {
   auto mk = [&](Buf i, size_t bytes, const char* what) { buf[i] = B(*dev, bytes, B::DeviceLocal, what); };
   mk(bP, 12 * N, "control points");
   mk(bX, 12 * nv, "vertices");
+  x_good = B(*dev, 12 * nv, B::DeviceLocal, "vertices of the last good frame");
   mk(bF, 12 * nf, "faces");
   mk(bAdjPtr, 4 * adj.indptr.size(), "adjacency");
   mk(bAdj, 4 * adj.faces.size(), "adjacency");
@@ -642,6 +669,13 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
   begin(cb, false);
   if (dev->timestamps) vkCmdResetQueryPool(cb, queries, 0, 3 + n_steps);
   if (dev->timestamps) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries, 0);
+  if (steps) {
+    // Only device steps can fail after the frame ran (their solve finds zero or
+    // dependent rows): keep the vertices it is about to overwrite. The barrier makes
+    // the last submission's writes to them visible to this copy.
+    barrier(cb);
+    copy(cb, buf[bX], x_good, 12 * nv);
+  }
   copy(cb, up_P, buf[bP], 12 * N);
   copy(cb, up_frame, buf[bFrame], buf[bFrame].size());
   if (shape.mode == Shape::HostOffsets) copy(cb, up_delta, buf[bDelta], 24 * N);
@@ -703,7 +737,10 @@ VulkanDeformer::~VulkanDeformer() = default;
 
 const Deformer& VulkanDeformer::cpu() const { return *impl_->cpu; }
 const DeviceInfo& VulkanDeformer::device() const { return impl_->dev->info; }
-const FrameTimings& VulkanDeformer::last_timings() const { return impl_->timings; }
+FrameTimings VulkanDeformer::last_timings() const {
+  std::lock_guard<std::mutex> lock(impl_->frame_mutex);
+  return impl_->timings;
+}
 const Vector3d& VulkanDeformer::origin() const { return impl_->origin; }
 std::uint64_t VulkanDeformer::vertex_buffer_handle() const {
   return reinterpret_cast<std::uint64_t>(impl_->buf[Impl::bX].handle());
@@ -714,18 +751,8 @@ std::uint64_t VulkanDeformer::index_buffer_handle() const {
 const std::vector<std::int32_t>& VulkanDeformer::vertex_order() const { return impl_->order; }
 
 RowMatrixX3d VulkanDeformer::vertices() const {
-  Impl& m = *impl_;
-  std::lock_guard<std::mutex> lock(m.frame_mutex);
-  if (!m.rb_X.handle()) m.rb_X = detail::Buffer(*m.dev, 12 * m.nv, detail::Buffer::Readback, "vertices (read-back)");
-  m.begin();
-  m.copy(m.buf[Impl::bX], m.rb_X, 12 * m.nv);
-  Impl::host_barrier(m.cmd);
-  m.submit_and_wait();
-  const float* x = static_cast<const float*>(m.rb_X.mapped());
-  RowMatrixX3d out(m.nv, 3);
-  for (Index i = 0; i < m.nv; ++i)
-    for (int a = 0; a < 3; ++a) out(m.order[i], a) = double(x[3 * i + a]) + m.origin[a];
-  return out;
+  std::lock_guard<std::mutex> lock(impl_->frame_mutex);
+  return impl_->read_vertices();
 }
 
 DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
@@ -734,30 +761,21 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   const auto t_start = std::chrono::steady_clock::now();
   Impl& m = *impl_;
   const Deformer& cpu = *m.cpu;
-  const Lattice& L = cpu.lattice();
-  const BasisTables& T = cpu.tables();
   const Index N = m.N;
 
-  // --- options: the CPU backend's own checks, so both refuse the same input ------
+  // --- options: the CPU backend's own checks (the free control points and the
+  // method included), so both refuse the same input ----------------------------------
   const FramePlan pl = cpu.plan(P, opt);
   const bool correcting = pl.correcting;
   const bool measure = pl.measure;
   const double target = pl.target;
-  const VectorXd& inv_weight = pl.inv_weight;
+  // The device works with inverse weights scaled to a largest value of 1, as
+  // solve_axis_offsets does on the CPU: the minimiser does not change, and the
+  // sums stay in range whatever the units of the weights.
+  const double wmax = pl.inv_weight.size() ? pl.inv_weight.maxCoeff() : 1.0;
+  const VectorXd inv_weight = wmax > 0 ? VectorXd(pl.inv_weight / wmax) : pl.inv_weight;
   const size_t nc = opt.constraints.size();
   const std::vector<SparseVec>& rows = pl.rows;
-  if (opt.preserve_volume && !cpu.is_closed())
-    VPFFD_CHECK(opt.method == CoefficientMethod::Traversal,
-                "deform: method='csr' needs a closed mesh; use method='traversal' with allow_open");
-  if (correcting) {
-    const int nrows = (opt.preserve_volume ? 1 : 0) + static_cast<int>(nc);
-    Index free_points = 0;
-    for (Index c = 0; c < N; ++c) free_points += inv_weight[c] > 0;
-    if (nrows > free_points)
-      throw SolverError(vpffd::detail::concat("correction along ", axis_name[opt.axes[0]], ": ", nrows, " conditions (",
-                                              opt.preserve_volume ? "volume + " : "", nc,
-                                              " point constraints) but only ", free_points, " free control points"));
-  }
 
   // --- what the device runs ---------------------------------------------------------
   const int naxes = static_cast<int>(opt.axes.size());
@@ -774,19 +792,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
     // Constraints alone do not depend on the mesh: the CPU backend's own steps, on the
     // host (same offsets, same errors); the device applies each axis's total once.
     shape.mode = Shape::HostOffsets;
-    for (int step = 0; step < k; ++step) {
-      const int a = opt.axes[step % naxes];
-      AxisStep info;
-      info.axis = a;
-      std::vector<double> rhs(nc);
-      const VectorXd Pa = P.col(a) + res.offsets.col(a);
-      for (size_t s = 0; s < nc; ++s) rhs[s] = opt.constraints[s].target[a] - row_dot(rows[s], Pa);
-      const VectorXd delta =
-          solve_axis_offsets(nullptr, 0.0, rows, rhs, inv_weight, axis_name[a], &info.sum_squares);
-      info.max_offset = delta.cwiseAbs().maxCoeff();
-      res.offsets.col(a) += delta;
-      res.steps.push_back(info);
-    }
+    constraint_steps(pl, P, opt, res);
     shape.axes = opt.axes;
   }
 
@@ -824,8 +830,10 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
     fr[FR_TARGET] = target;  // volumes on the device are relative to the origin, like the CPU's
     fr[FR_MAX_INVW] = inv_weight.maxCoeff();
     fr[FR_HI] = m.cons.hi;
-    for (int a = 0; a < 3; ++a)
-      for (size_t s = 0; s < nc; ++s) fr[FR_RHS + a * nc + s] = opt.constraints[s].target[a] - row_dot(rows[s], P.col(a));
+    for (int a = 0; a < 3; ++a) {
+      const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, P.col(a));
+      std::copy(rhs.begin(), rhs.end(), fr + FR_RHS + a * nc);
+    }
   }
   if (shape.mode == Shape::HostOffsets) {
     double* dl = static_cast<double*>(m.up_delta.mapped());
@@ -840,8 +848,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   m.submit_and_wait(aux ? cbs : cbs + 1, aux ? 2 : 1);
   if (new_invw && shape.mode == Shape::DeviceSteps) m.invw_uploaded = inv_weight;
 
-  FrameTimings& tm = m.timings;
-  tm = FrameTimings{};
+  FrameTimings tm;
   const std::uint32_t ns = rec.n_steps;
   if (m.dev->timestamps) {
     std::uint64_t ts[kQueries] = {};
@@ -863,6 +870,11 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
       const double* q = st + ST_STEP + step * ST_STEP_STRIDE;
       const char ax = axis_name[shape.axes[step]];
       const int status = static_cast<int>(q[4]);
+      if (status == 0) continue;
+      // The frame ran but has no correction: its vertices must not outlive it.
+      m.timings = tm;
+      m.timings.host_total = ms_since(t_start);
+      m.restore_vertices();
       if (status == 1)
         throw SolverError(vpffd::detail::concat("correction along ", ax,
                                                 ": the volume coefficients of the free control points are all zero "
@@ -877,6 +889,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
             "correction along ", ax, ": the volume and point constraints are linearly dependent (condition number ",
             q[5], "); two constraints on the same point, or a constraint the volume row already fixes?"));
       }
+      throw DeviceError(vpffd::detail::concat("vulkan: the solve of step ", step, " reported status ", status));
     }
   }
   res.target_volume = opt.preserve_volume ? target : std::numeric_limits<double>::quiet_NaN();
@@ -890,7 +903,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
       info.axis = shape.axes[step];
       info.volume_before = q[0];
       info.share = q[1];
-      info.sum_squares = q[2];
+      info.sum_squares = q[2] * wmax;  // in the caller's weights
       info.max_offset = q[3];
       res.steps.push_back(info);
     }
@@ -907,13 +920,11 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
     res.volume_before = before;
     res.volume = after;
   }
-  for (size_t s = 0; s < nc; ++s)
-    for (int a = 0; a < 3; ++a)
-      res.constraint_error = std::max(res.constraint_error, std::abs(row_dot(rows[s], res.control_points.col(a)) -
-                                                                     opt.constraints[s].target[a]));
-  lock.unlock();
-  if (read_vertices) res.vertices = vertices();
+  res.constraint_error = constraint_error(rows, res.control_points, opt.constraints);
+  // Under the frame's lock: another thread's frame must not slip in before the read-back.
+  if (read_vertices) res.vertices = m.read_vertices();
   tm.host_total = ms_since(t_start);
+  m.timings = std::move(tm);
   return res;
 }
 

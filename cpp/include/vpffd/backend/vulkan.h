@@ -18,9 +18,24 @@
 ///
 /// Precision: positions, control points and basis values are float32 on the device
 /// (positions relative to origin()); weights, coefficients, volumes and offsets are
-/// float64. Vertices agree with the CPU backend to about 1e-7 of the lattice size,
-/// and the corrected volume matches the target to about 1e-9 relative. Devices
-/// without shaderFloat64 are reported as unsuitable.
+/// float64. The tests (tests/cpp/test_vulkan.cpp, tests/python/test_vulkan.py) require
+/// vertices within 1e-6 of the lattice box diagonal of the CPU backend's and a
+/// corrected volume within 2e-8 relative of the CPU's and of the target (the final
+/// volume is summed in float64 from float32 positions); on lavapipe the largest seen
+/// are 2.8e-7 and 4.2e-9 (meshes of a few hundred vertices; 2e-11 on the dragon).
+/// An uncorrected volume carries the positions' rounding (tests: 1e-6, seen 7.5e-8).
+/// Devices without shaderFloat64 are reported as unsuitable.
+///
+/// Threads: deform(), vertices() and last_timings() may be called from several
+/// threads on one deformer; frames run one at a time, and each deform() returns its
+/// own frame's vertices and leaves its own timings.
+///
+/// Errors: a frame that fails (InvalidInputError, SolverError) leaves the device
+/// vertices (vertices(), vertex_buffer_handle()) those of the last frame that
+/// succeeded, or the rest mesh. Most failures are found on the host before the
+/// frame runs; a volume correction that fails on the device (zero coefficients,
+/// dependent rows) restores the vertices it overwrote, which costs a copy of the
+/// vertices (12 bytes per vertex of device memory, and of traffic per frame).
 ///
 /// Vulkan is loaded at run time (volk): nothing here needs a Vulkan driver until a
 /// device is asked for, and then a missing one raises BackendUnavailableError.
@@ -86,20 +101,24 @@ class VulkanDeformer {
   VulkanDeformer& operator=(const VulkanDeformer&) = delete;
 
   /// One frame with control points P (N x 3). `opt.method` and `opt.threads` are
-  /// ignored (the device always uses the traversal). With read_vertices false the
+  /// ignored (the device always uses the traversal; method='csr' is still refused on
+  /// an open mesh, as on the CPU, so both backends accept the same options). With read_vertices false the
   /// result's `vertices` is empty: call vertices() when they are needed. Errors are
   /// the CPU backend's (for dependent constraint rows it is asked for its message).
   /// @throws as Deformer::deform; a device failure throws DeviceError
   DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
                       bool read_vertices = true);
 
-  /// #V x 3 vertices of the last frame in the input order (the rest mesh before any frame).
+  /// #V x 3 vertices of the last frame that succeeded, in the input order (the rest
+  /// mesh before any frame).
   RowMatrixX3d vertices() const;
 
   /// The CPU Deformer of the same mesh: rest volume, edges, embedding, jacobians...
   const Deformer& cpu() const;
   const DeviceInfo& device() const;
-  const FrameTimings& last_timings() const;
+  /// Timings of the last frame that ran on the device (a copy: another thread's
+  /// frame may replace them at any time).
+  FrameTimings last_timings() const;
   /// Reference point of the device positions (the lattice centre), world units.
   const Vector3d& origin() const;
 

@@ -40,12 +40,32 @@ struct FramePlan {
   bool measure = false;       ///< the volume is defined (closed mesh, or allow_open)
   double target = 0;          ///< target volume
   VectorXd inv_weight;        ///< N: 1 / weight, 0 for fixed control points
+  Index free_points = 0;      ///< control points with inv_weight > 0 (checked against the conditions)
   Embedding sources;          ///< the constraint points embedded in the lattice
   std::vector<SparseVec> rows;  ///< per constraint: its basis row (control index, value)
 };
 
 /// r . x for a sparse row r.
 inline double row_dot(const SparseVec& r, const Eigen::Ref<const VectorXd>& x);
+
+/// Right-hand sides of the point constraints along axis a: target minus where each
+/// constraint point is with control point coordinates `Pa` (earlier steps may have
+/// moved it).
+inline std::vector<double> constraint_rhs(const std::vector<SparseVec>& rows,
+                                          const std::vector<PointConstraint>& constraints, int a,
+                                          const Eigen::Ref<const VectorXd>& Pa);
+
+/// Largest coordinate error of the point constraints for control points `CP` (N x 3).
+inline double constraint_error(const std::vector<SparseVec>& rows, const Eigen::Ref<const RowMatrixX3d>& CP,
+                               const std::vector<PointConstraint>& constraints);
+
+/// The axis steps of a frame with point constraints and no volume row: they do not
+/// depend on the mesh, so every backend solves them on the host with this one loop.
+/// Adds each step's offsets to `res.offsets` (N x 3, zero on entry) and its record to
+/// `res.steps`; the caller moves the vertices by each axis's total.
+/// @throws SolverError as solve_axis_offsets
+inline void constraint_steps(const FramePlan& plan, const Eigen::Ref<const RowMatrixX3d>& P,
+                             const CorrectionOptions& opt, DeformResult& res);
 
 class Deformer {
  public:
@@ -106,13 +126,16 @@ class Deformer {
     return rest_volume_;
   }
 
-  /// Bytes of per-vertex data kept for every frame: the embedding (36), the
-  /// vertex-face adjacency (about 6 faces x 4 bytes + 4) and the processing
-  /// order (4 + 4), plus the renumbered faces per vertex (about 2 x 12).
+  /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
+  /// vertex and face orders, the faces (as given and renumbered), the vertex-face
+  /// lists and the rest vertices (about 150 bytes for a closed mesh, F = 2V).
   double bytes_per_vertex() const {
-    const double nv = double(n_vertices());
-    const double adj = double(adjacency_.indptr.size() + adjacency_.faces.size()) * 4 / nv;
-    return double(Embedding::bytes_per_point) + adj + 8.0 + double(Fs_.size()) * 4 / nv;
+    const double per_int = sizeof(std::int32_t);
+    double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size()) * per_int;
+    bytes += double(order_.size() + rank_.size() + face_order_.size()) * per_int;
+    bytes += double(adjacency_.indptr.size() + adjacency_.faces.size()) * per_int;
+    bytes += double(n_vertices()) * Embedding::bytes_per_point;
+    return bytes / double(n_vertices());
   }
 
   /// Plain FFD of the mesh vertices. @param P N x 3 control points. @returns #V x 3
@@ -208,12 +231,17 @@ class Deformer {
     });
   }
 
-  AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads) const {
-    if (!is_closed()) {
-      // The paper's matrix holds the projection form, which on an open surface
-      // differs from the cone volume that is measured and kept.
+  // The paper's matrix holds the projection form, which on an open surface
+  // differs from the cone volume that is measured and kept.
+  void check_method(CoefficientMethod method) const {
+    if (!is_closed())
       VPFFD_CHECK(method == CoefficientMethod::Traversal,
                   "deform: method='csr' needs a closed mesh; use method='traversal' with allow_open");
+  }
+
+  AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads) const {
+    if (!is_closed()) {
+      check_method(method);
       return coefficients_traversal(tables_, embedding_, adjacency_, X, Fs_, axis, origin_, threads, true);
     }
     if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, Fs_, axis, origin_, threads);
@@ -297,8 +325,10 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
     VPFFD_CHECK(opt.weights.size() == N, "deform: ", opt.weights.size(), " weights, expected one per control point (",
                 N, ")");
     for (Index c = 0; c < N; ++c)
-      VPFFD_CHECK(std::isfinite(opt.weights[c]) && opt.weights[c] > 0, "deform: weight ", c, " is ", opt.weights[c],
-                  "; weights must be finite and positive (use fixed= to pin control points)");
+      VPFFD_CHECK(std::isfinite(opt.weights[c]) && opt.weights[c] > 0 && std::isfinite(1.0 / opt.weights[c]),
+                  "deform: weight ", c, " is ", opt.weights[c],
+                  "; weights must be finite and positive, and not so small that 1/weight overflows "
+                  "(use fixed= to pin control points)");
     plan.inv_weight = opt.weights.cwiseInverse();
   }
   if (!opt.fixed.empty()) {
@@ -349,7 +379,47 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
                     " moves its point along ", axis_name[a], " (from ", S, " to ", opt.constraints[s].target[a],
                     "), but ", axis_name[a], " is not among the corrected axes");
       }
+
+  // Checks that the first axis step would make: made here so that a frame that
+  // cannot be corrected fails before any work, with the same message on every backend.
+  plan.free_points = count_free_points(plan.inv_weight);
+  if (opt.preserve_volume) check_method(opt.method);
+  if (plan.correcting) check_free_points(opt.preserve_volume, nc, plan.free_points, axis_name[opt.axes[0]]);
   return plan;
+}
+
+inline std::vector<double> constraint_rhs(const std::vector<SparseVec>& rows,
+                                          const std::vector<PointConstraint>& constraints, int a,
+                                          const Eigen::Ref<const VectorXd>& Pa) {
+  std::vector<double> rhs(rows.size());
+  for (size_t s = 0; s < rows.size(); ++s) rhs[s] = constraints[s].target[a] - row_dot(rows[s], Pa);
+  return rhs;
+}
+
+inline double constraint_error(const std::vector<SparseVec>& rows, const Eigen::Ref<const RowMatrixX3d>& CP,
+                               const std::vector<PointConstraint>& constraints) {
+  double err = 0;
+  for (size_t s = 0; s < rows.size(); ++s)
+    for (int a = 0; a < 3; ++a) err = std::max(err, std::abs(row_dot(rows[s], CP.col(a)) - constraints[s].target[a]));
+  return err;
+}
+
+inline void constraint_steps(const FramePlan& plan, const Eigen::Ref<const RowMatrixX3d>& P,
+                             const CorrectionOptions& opt, DeformResult& res) {
+  static const char axis_name[3] = {'x', 'y', 'z'};
+  const int naxes = static_cast<int>(opt.axes.size());
+  for (int step = 0; step < naxes * opt.rounds; ++step) {
+    const int a = opt.axes[step % naxes];
+    AxisStep info;
+    info.axis = a;
+    const VectorXd Pa = P.col(a) + res.offsets.col(a);
+    const std::vector<double> rhs = constraint_rhs(plan.rows, opt.constraints, a, Pa);
+    const VectorXd delta =
+        solve_axis_offsets(nullptr, 0.0, plan.rows, rhs, plan.inv_weight, axis_name[a], &info.sum_squares);
+    info.max_offset = delta.cwiseAbs().maxCoeff();
+    res.offsets.col(a) += delta;
+    res.steps.push_back(info);
+  }
 }
 
 inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
@@ -357,7 +427,6 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   const Index N = n_control_points();
   const int threads = opt.threads;
   const FramePlan pl = plan(P, opt);
-  const size_t nc = opt.constraints.size();
   const std::vector<SparseVec>& rows = pl.rows;
 
   // --- plain FFD -------------------------------------------------------------
@@ -372,27 +441,26 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     res.volume_before = signed_volume(X, Fs_, origin_, threads);
 
   // --- axis steps -------------------------------------------------------------
-  if (pl.correcting) {
+  if (pl.correcting && !opt.preserve_volume) {
+    // Constraints alone: the host steps, then each axis's total offsets at once.
+    constraint_steps(pl, P, opt, res);
+    for (int a : opt.axes) gather(VectorXd(res.offsets.col(a)), X, a, threads);
+  } else if (pl.correcting) {
     const int naxes = static_cast<int>(opt.axes.size());
     const int k = naxes * opt.rounds;
     for (int step = 0; step < k; ++step) {
       const int a = opt.axes[step % naxes];
       AxisStep info;
       info.axis = a;
-      AxisCoefficients co;
-      if (opt.preserve_volume) {
-        co = coefficients(X, a, opt.method, threads);
-        info.volume_before = co.volume;
-        if (step == 0) res.volume_before = co.volume;
-        // Equal shares of what is still missing: after the last axis the volume is the target.
-        info.share = (pl.target - co.volume) / (k - step);
-      }
-      std::vector<double> rhs(nc);
-      // Where the constraint point is now along a: earlier rounds may have moved it.
+      const AxisCoefficients co = coefficients(X, a, opt.method, threads);
+      info.volume_before = co.volume;
+      if (step == 0) res.volume_before = co.volume;
+      // Equal shares of what is still missing: after the last axis the volume is the target.
+      info.share = (pl.target - co.volume) / (k - step);
       const VectorXd Pa = P.col(a) + res.offsets.col(a);
-      for (size_t s = 0; s < nc; ++s) rhs[s] = opt.constraints[s].target[a] - row_dot(rows[s], Pa);
-      const VectorXd delta = solve_axis_offsets(opt.preserve_volume ? &co.alpha : nullptr, info.share, rows, rhs,
-                                                pl.inv_weight, axis_name[a], &info.sum_squares);
+      const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, Pa);
+      const VectorXd delta =
+          solve_axis_offsets(&co.alpha, info.share, rows, rhs, pl.inv_weight, axis_name[a], &info.sum_squares);
       info.max_offset = delta.cwiseAbs().maxCoeff();
       res.offsets.col(a) += delta;
       gather(delta, X, a, threads);
@@ -402,10 +470,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   res.control_points = P + res.offsets;
   if (pl.measure) res.volume = signed_volume(X, Fs_, origin_, threads);
   res.vertices = to_caller_order(Xs, threads);
-  for (size_t s = 0; s < nc; ++s)
-    for (int a = 0; a < 3; ++a)
-      res.constraint_error = std::max(res.constraint_error, std::abs(row_dot(rows[s], res.control_points.col(a)) -
-                                                                     opt.constraints[s].target[a]));
+  res.constraint_error = constraint_error(rows, res.control_points, opt.constraints);
   return res;
 }
 
