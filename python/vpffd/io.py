@@ -39,7 +39,12 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
 
     Faces come back exactly as stored (polygons split into triangle fans): no
     vertex is merged and no face is dropped, so ``mesh.check()`` reports the
-    defects of the file itself.
+    defects of the file itself. This holds for every format: a face with a
+    repeated corner (OBJ ``f 1 1 1``, OFF ``3 0 0 0``) is returned as stored
+    (``f 1 2 2 3`` gives the fan ``[0, 1, 1], [0, 1, 2]``); only faces with fewer
+    than 3 corners are left out (``_core.read_mesh`` counts them in
+    ``skipped_faces``). STL is the exception that has no shared vertices: its
+    reader merges equal positions.
 
     Parameters
     ----------
@@ -59,7 +64,10 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
     ------
     vpffd.MeshIOError (an OSError)
         the file is missing, empty, truncated, not a mesh, has no faces, an
-        unknown extension, ...: the message names the file and the problem.
+        unknown extension, a non-finite coordinate (``nan``, ``inf``, ``1e400``),
+        a line of an ASCII file that does not parse completely or has the wrong
+        number of values, ...: the message names the file, the problem and, for
+        ASCII files, the line.
     TypeError
         ``path`` is not a file name.
     """

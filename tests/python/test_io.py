@@ -1,6 +1,7 @@
 """Mesh files through OpenMesh: round trips per format, .gz, bad files and arguments."""
 import gzip
 import os
+import re
 import warnings
 from pathlib import Path
 
@@ -203,3 +204,155 @@ def test_bad_arguments(tmp_path, sphere):
 def test_shared_gz_matches_manifest_sizes():
     m = vpffd.load_mesh(SHARED / "BADINPUT_dragon_vrip_raw_unwelded.ply.gz")
     assert (m.n_vertices, m.n_faces) == (437645, 871414)
+
+
+# --- strict ASCII parsing: garbage or short data is an error, never a wrong mesh ---
+TRI_OFF = "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+
+
+def _load_error(tmp_path, name, text):
+    p = tmp_path / name
+    p.write_bytes(text.encode() if isinstance(text, str) else text)
+    with pytest.raises(vpffd.MeshIOError) as e:
+        vpffd.load_mesh(p)
+    msg = str(e.value)
+    assert name in msg, msg
+    return msg
+
+
+@pytest.mark.parametrize("bad,where", [
+    ("nan 0 0", "line 3"), ("inf 0 0", "line 3"), ("1e400 0 0", "line 3"), ("-inf 0 0", "line 3")])
+def test_off_non_finite_coordinate_names_the_line(tmp_path, bad, where):
+    msg = _load_error(tmp_path, "nf.off", TRI_OFF.replace("0 0 0\n", bad + "\n", 1))
+    assert where in msg and "non-finite" in msg, msg
+
+
+@pytest.mark.parametrize("text,expect", [
+    (TRI_OFF.replace("1 0 0\n", "1 x 0\n"), r"line 4.*'x' is not a number"),
+    (TRI_OFF.replace("1 0 0\n", "1 0\n"), r"line 4.*vertex 1 has 2 numbers"),
+    (TRI_OFF.replace("3 0 1 2", "3 0 1 b"), r"line 6.*'b' is not a vertex index"),
+    (TRI_OFF.replace("3 0 1 2", "3 0 1"), r"line 6.*announces 3 corners"),
+    (TRI_OFF.replace("3 0 1 2", "3 0 1 3"), r"line 6.*refers to vertex 3"),
+    ("OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n", r"truncated.*4 vertices"),
+    ("OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", r"truncated.*2 faces"),
+    (TRI_OFF + "3 0 2 1\n", r"line 7.*unexpected data"),
+    ("OFF\nthree 1 0\n0 0 0\n", r"line 2.*counts"),
+    ("FOO\n3 1 0\n", r"line 1.*OFF header"),
+])
+def test_off_garbage_and_truncation_raise(tmp_path, text, expect):
+    msg = _load_error(tmp_path, "bad.off", text)
+    assert re.search(expect, msg), msg
+
+
+def test_off_variants_still_load(tmp_path):
+    # comments, blank lines, CRLF, face colours, counts on the keyword line
+    # (and glued to it, as in ModelNet), NOFF normals, COFF vertex colours
+    texts = [
+        "# a comment\nOFF\n\n3 1 0  # counts\r\n0 0 0\n1 0 0 # x axis\n0 1 0\n3 0 1 2 255 0 0\n",
+        "OFF 3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+        "OFF3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+        "COFF\n3 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n3 0 1 2\n",
+    ]
+    for k, t in enumerate(texts):
+        p = tmp_path / f"v{k}.off"
+        p.write_text(t)
+        m = vpffd.load_mesh(p)
+        np.testing.assert_array_equal(m.vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+        np.testing.assert_array_equal(m.faces, [[0, 1, 2]])
+    p = tmp_path / "n.off"
+    p.write_text("NOFF\n3 1 0\n0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n3 0 1 2\n")
+    m, n = vpffd.load_mesh(p, return_normals=True)
+    np.testing.assert_array_equal(n, [[0, 0, 1]] * 3)
+
+
+def test_off_keeps_degenerate_faces_and_counts_short_ones(tmp_path):
+    p = tmp_path / "d.off"
+    p.write_text("OFF\n4 3 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 0 0\n4 0 1 1 2\n2 0 1\n")
+    d = vpffd._core.read_mesh(str(p))
+    np.testing.assert_array_equal(d["faces"], [[0, 0, 0], [0, 1, 1], [0, 1, 2]])
+    assert (d["polygons"], d["triangulated_polygons"], d["skipped_faces"]) == (3, 1, 1)
+
+
+OBJ_TRI = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+
+
+def test_obj_keeps_faces_as_stored(tmp_path):
+    # OpenMesh's OBJ reader dropped "f 1 1 1" and turned "f 1 2 2 3" into one
+    # triangle; faces now come back as stored, like OFF and PLY.
+    p = tmp_path / "d.obj"
+    p.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1 1 1\nf 1 2 2 3\nf 1 2\nf 3/1 -2/1/1 1//1\n")
+    d = vpffd._core.read_mesh(str(p))
+    np.testing.assert_array_equal(d["faces"], [[0, 0, 0], [0, 1, 1], [0, 1, 2], [2, 1, 0]])
+    assert (d["polygons"], d["triangulated_polygons"], d["skipped_faces"]) == (4, 1, 1)
+    off = tmp_path / "d.off"
+    off.write_text("OFF\n3 4 0\n0 0 0\n1 0 0\n0 1 0\n3 0 0 0\n4 0 1 1 2\n2 0 1\n3 2 1 0\n")
+    np.testing.assert_array_equal(vpffd._core.read_mesh(str(off))["faces"], d["faces"])
+
+
+@pytest.mark.parametrize("text,expect", [
+    (OBJ_TRI.replace("v 1 0 0", "v nan 0 0"), r"line 2.*non-finite"),
+    (OBJ_TRI.replace("v 1 0 0", "v 1e400 0 0"), r"line 2.*non-finite"),
+    (OBJ_TRI.replace("v 1 0 0", "v 1 x 0"), r"line 2.*'x' is not a number"),
+    (OBJ_TRI.replace("v 1 0 0", "v 1 0"), r"line 2.*2 values"),
+    (OBJ_TRI.replace("f 1 2 3", "f 1 2 x"), r"line 4.*'x'"),
+    (OBJ_TRI.replace("f 1 2 3", "f 1 2 0"), r"line 4.*'0'"),
+    (OBJ_TRI.replace("f 1 2 3", "f 1 2 -4"), r"line 4.*refers back"),
+    (OBJ_TRI.replace("f 1 2 3", "f 1 2 9"), r"line 4.*vertex 9.*3 vertices"),
+    (OBJ_TRI.replace("f 1 2 3", "f 1//2 2//2 3//2"), r"line 4.*normal 2"),
+])
+def test_obj_garbage_raises_naming_the_line(tmp_path, text, expect):
+    msg = _load_error(tmp_path, "bad.obj", text)
+    assert re.search(expect, msg), msg
+
+
+def test_obj_ignores_other_keywords(tmp_path):
+    p = tmp_path / "k.obj"
+    p.write_text("# c\nmtllib a.mtl\no thing\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\ng grp\nusemtl m\ns off\n"
+                 "l 1 2\nf 1/1 2/1 3/1\n")
+    m = vpffd.load_mesh(p)
+    np.testing.assert_array_equal(m.faces, [[0, 1, 2]])
+
+
+PLY_HEAD = ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face 1\nproperty list uchar int vertex_indices\nend_header\n")
+PLY_TRI = PLY_HEAD + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+
+
+@pytest.mark.parametrize("text,expect", [
+    (PLY_TRI.replace("1 0 0\n", "nan 0 0\n"), r"line 11.*non-finite"),
+    (PLY_TRI.replace("1 0 0\n", "1e400 0 0\n"), r"line 11.*non-finite"),
+    (PLY_TRI.replace("1 0 0\n", "1 x 0\n"), r"line 11.*'x' is not a number"),
+    (PLY_TRI.replace("1 0 0\n", "1 0\n"), r"line 11.*too few values"),
+    (PLY_TRI.replace("1 0 0\n", "1 0 0 0\n"), r"line 11.*4 values"),
+    (PLY_TRI.replace("3 0 1 2", "3 0 1"), r"line 13.*too few"),
+    (PLY_TRI.replace("3 0 1 2", "3 0 1 2.5"), r"line 13.*not an integer"),
+    (PLY_HEAD + "0 0 0\n1 0 0\n", r"truncated.*3 vertex"),
+    (PLY_TRI + "3 0 1 2\n", r"line 14.*unexpected data"),
+])
+def test_ascii_ply_garbage_raises_naming_the_line(tmp_path, text, expect):
+    msg = _load_error(tmp_path, "bad.ply", text)
+    assert re.search(expect, msg), msg
+
+
+def test_ascii_ply_still_loads(tmp_path):
+    p = tmp_path / "ok.ply"
+    p.write_text(PLY_TRI.replace("format ascii 1.0\n", "format ascii 1.0\ncomment made by hand\n"))
+    m = vpffd.load_mesh(p)
+    np.testing.assert_array_equal(m.vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    np.testing.assert_array_equal(m.faces, [[0, 1, 2]])
+
+
+STL_TRI = ("solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\n"
+           "endfacet\nendsolid t\n")
+
+
+@pytest.mark.parametrize("text,expect", [
+    (STL_TRI.replace("vertex 1 0 0", "vertex 1 x 0"), r"line 5.*'x' is not a number"),
+    (STL_TRI.replace("vertex 1 0 0", "vertex nan 0 0"), r"line 5.*non-finite"),
+    (STL_TRI.replace("vertex 1 0 0", "vertex 1e400 0 0"), r"line 5.*non-finite"),
+    (STL_TRI.replace("vertex 1 0 0\n", ""), r"line 6.*expected 'vertex'|line 6.*endloop|expected 'vertex'"),
+    (STL_TRI.replace("facet normal 0 0 1", "facet normal 0 zero 1"), r"line 2.*'zero'"),
+])
+def test_ascii_stl_garbage_raises_naming_the_line(tmp_path, text, expect):
+    msg = _load_error(tmp_path, "bad.stl", text)
+    assert re.search(expect, msg), msg

@@ -143,3 +143,34 @@ def test_bad_arguments(sphere):
     h = vpffd.pick(sphere, (0, 0, 5), (0, 0, -1))
     with pytest.raises(vpffd.InvalidInputError):
         h.rest_point(vpffd.Mesh(sphere.vertices, sphere.faces[:10]))
+
+
+def test_concurrent_scenes_and_picks_from_threads(sphere):
+    # All scenes share one Embree device; its errors are per thread, so calls
+    # from several Python threads (the GIL is released in C++) must neither
+    # disturb each other's results nor receive each other's errors.
+    import threading
+    rng = np.random.default_rng(11)
+    O = rng.normal(size=(3000, 3))
+    O = 3 * O / np.linalg.norm(O, axis=1, keepdims=True)
+    D = -O
+    ref = vpffd.Scene(sphere).pick_many(O, D)
+    errors, results = [], []
+
+    def work():
+        try:
+            for _ in range(3):
+                results.append(vpffd.Scene(sphere).pick_many(O, D))
+        except Exception as e:  # noqa: BLE001 - collected and reported below
+            errors.append(e)
+
+    threads = [threading.Thread(target=work) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
+    assert len(results) == 12
+    for r in results:
+        np.testing.assert_array_equal(r[0], ref[0])
+        np.testing.assert_array_equal(r[1], ref[1])

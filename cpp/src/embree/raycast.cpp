@@ -1,5 +1,5 @@
-// Picking and ray-cast rendering with Embree 3. Embree reports errors through a
-// device callback; they are collected and thrown as DeviceError after each call.
+// Picking and ray-cast rendering with Embree 3. Embree errors are read back on
+// the thread that made the failing call and thrown as DeviceError by that call.
 
 #include "vpffd/render/raycast.h"
 
@@ -20,17 +20,23 @@ namespace vpffd {
 namespace {
 
 // One Embree device for the process: creating one costs milliseconds and it is
-// thread-safe. Errors are recorded per device and read back after each call.
+// thread-safe. Its error state is NOT shared: Embree keeps one error code per
+// thread and device, and calls the error function on the thread whose call
+// failed. A single shared "last error" slot would let one thread's failure be
+// thrown from another thread's unrelated call (or be lost), so the code is read
+// with rtcGetDeviceError on the calling thread right after the calls it checks,
+// and the callback's text is kept in a thread_local next to it.
 struct Device {
   RTCDevice device = nullptr;
-  std::mutex mutex;
-  std::string last_error;
 };
 
-void on_error(void* user, RTCError code, const char* msg) {
-  auto* d = static_cast<Device*>(user);
-  std::lock_guard<std::mutex> lock(d->mutex);
-  d->last_error = "Embree error " + std::to_string(static_cast<int>(code)) + (msg ? std::string(": ") + msg : "");
+// Text of the first Embree error on this thread since the last take_error; the
+// code itself lives in Embree's own per-thread slot.
+thread_local std::string t_error_text;
+
+void on_error(void*, RTCError, const char* msg) {
+  // Keep the first message, like Embree keeps the first code.
+  if (t_error_text.empty()) t_error_text = msg && *msg ? msg : "(no message)";
 }
 
 Device& device() {
@@ -38,7 +44,7 @@ Device& device() {
   static std::once_flag once;
   std::call_once(once, [] {
     d.device = rtcNewDevice(nullptr);
-    if (d.device) rtcSetDeviceErrorFunction(d.device, on_error, &d);
+    if (d.device) rtcSetDeviceErrorFunction(d.device, on_error, nullptr);
   });
   if (!d.device)
     throw DeviceError("rtcNewDevice failed (Embree error " + std::to_string(static_cast<int>(rtcGetDeviceError(nullptr))) +
@@ -46,15 +52,40 @@ Device& device() {
   return d;
 }
 
-void throw_if_error(const char* call) {
-  Device& d = device();
-  std::lock_guard<std::mutex> lock(d.mutex);
-  if (!d.last_error.empty()) {
-    std::string e = std::move(d.last_error);
-    d.last_error.clear();
-    throw DeviceError(std::string(call) + ": " + e);
-  }
+// Reads and clears this thread's Embree error; "" when there is none.
+std::string take_error() {
+  const RTCError code = rtcGetDeviceError(device().device);
+  std::string text = std::move(t_error_text);
+  t_error_text.clear();
+  if (code == RTC_ERROR_NONE) return "";
+  return "Embree error " + std::to_string(static_cast<int>(code)) + (text.empty() ? "" : ": " + text);
 }
+
+void throw_if_error(const char* call) {
+  std::string e = take_error();
+  if (!e.empty()) throw DeviceError(std::string(call) + ": " + e);
+}
+
+// Errors raised on OpenMP worker threads sit in those threads' slots; each
+// worker moves its own into this per-call collector so that the calling thread
+// can throw it (and only the call that caused it sees it).
+class CallErrors {
+ public:
+  void collect() {
+    std::string e = take_error();
+    if (e.empty()) return;
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (first_.empty()) first_ = std::move(e);
+  }
+  void throw_if_any(const char* call) {
+    collect();
+    if (!first_.empty()) throw DeviceError(std::string(call) + ": " + first_);
+  }
+
+ private:
+  std::mutex mutex_;
+  std::string first_;
+};
 
 struct Frame {
   Vector3d eye, f, r, u;
@@ -191,12 +222,19 @@ std::vector<RayHit> RayScene::intersect(const Eigen::Ref<const RowMatrixX3d>& or
     VPFFD_CHECK(directions.row(i).norm() > 0, "pick: direction ", i, " is zero");
   std::vector<RayHit> hits(static_cast<size_t>(origins.rows()));
   const Index n = origins.rows();
+  CallErrors errors;
 #ifdef _OPENMP
-#pragma omp parallel for schedule(static) if (n > 1024)
+#pragma omp parallel if (n > 1024)
 #endif
-  for (Index i = 0; i < n; ++i)
-    hits[i] = impl_->cast(origins.row(i).transpose(), directions.row(i).transpose().normalized(), tmin);
-  throw_if_error("rtcIntersect1");
+  {
+#ifdef _OPENMP
+#pragma omp for schedule(static)
+#endif
+    for (Index i = 0; i < n; ++i)
+      hits[i] = impl_->cast(origins.row(i).transpose(), directions.row(i).transpose().normalized(), tmin);
+    errors.collect();  // this thread's own Embree error slot
+  }
+  errors.throw_if_any("rtcIntersect1");
   return hits;
 }
 
@@ -228,52 +266,59 @@ std::vector<std::uint8_t> RayScene::render(const RenderCamera& cam, const Render
   std::vector<float> depth(static_cast<size_t>(W) * H, std::numeric_limits<float>::infinity());
   const double inv = 1.0 / (S * S);
 
+  CallErrors errors;
 #ifdef _OPENMP
-#pragma omp parallel for schedule(dynamic, 4)
+#pragma omp parallel
 #endif
-  for (int y = 0; y < H; ++y) {
-    RTCIntersectContext ctx;
-    for (int x = 0; x < W; ++x) {
-      Vector3d acc = Vector3d::Zero();
-      float dmin = std::numeric_limits<float>::infinity();
-      for (int sy = 0; sy < S; ++sy)
-        for (int sx = 0; sx < S; ++sx) {
-          const double px = x + (sx + 0.5) / S - 0.5, py = y + (sy + 0.5) / S - 0.5;
-          const Vector3d dir = frame_ray(fr, W, H, px, py);
-          rtcInitIntersectContext(&ctx);
-          RTCRayHit rh = impl_->make_ray(fr.eye, dir, 0.0);
-          rtcIntersect1(impl_->scene, &ctx, &rh);
-          if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
-            acc += opt.background;
-            continue;
+  {
+#ifdef _OPENMP
+#pragma omp for schedule(dynamic, 4)
+#endif
+    for (int y = 0; y < H; ++y) {
+      RTCIntersectContext ctx;
+      for (int x = 0; x < W; ++x) {
+        Vector3d acc = Vector3d::Zero();
+        float dmin = std::numeric_limits<float>::infinity();
+        for (int sy = 0; sy < S; ++sy)
+          for (int sx = 0; sx < S; ++sx) {
+            const double px = x + (sx + 0.5) / S - 0.5, py = y + (sy + 0.5) / S - 0.5;
+            const Vector3d dir = frame_ray(fr, W, H, px, py);
+            rtcInitIntersectContext(&ctx);
+            RTCRayHit rh = impl_->make_ray(fr.eye, dir, 0.0);
+            rtcIntersect1(impl_->scene, &ctx, &rh);
+            if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+              acc += opt.background;
+              continue;
+            }
+            dmin = std::min(dmin, rh.ray.tfar);
+            const Index f = rh.hit.primID;
+            const double u = rh.hit.u, v = rh.hit.v, w = 1.0 - u - v;
+            const int a = impl_->F(f, 0), b = impl_->F(f, 1), c = impl_->F(f, 2);
+            Vector3d n = w * N.row(a) + u * N.row(b) + v * N.row(c);
+            if (n.squaredNorm() == 0) n = Vector3d(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+            n.normalize();
+            const bool back = n.dot(dir) > 0;
+            if (back) n = -n;
+            const Vector3d albedo =
+                colored ? Vector3d(w * opt.vertex_colors.row(a) + u * opt.vertex_colors.row(b) +
+                                   v * opt.vertex_colors.row(c))
+                        : opt.base_color;
+            const double head = std::max(0.0, -n.dot(dir)), kd = std::max(0.0, n.dot(key));
+            const Vector3d h = (key - dir).normalized();
+            const double spec = std::pow(std::max(0.0, n.dot(h)), 40.0);
+            double light = 0.22 + 0.5 * head + 0.38 * kd;
+            if (back) light *= 0.6;  // insides of open surfaces read as darker
+            acc += albedo * light + Vector3d::Constant(0.18 * spec);
           }
-          dmin = std::min(dmin, rh.ray.tfar);
-          const Index f = rh.hit.primID;
-          const double u = rh.hit.u, v = rh.hit.v, w = 1.0 - u - v;
-          const int a = impl_->F(f, 0), b = impl_->F(f, 1), c = impl_->F(f, 2);
-          Vector3d n = w * N.row(a) + u * N.row(b) + v * N.row(c);
-          if (n.squaredNorm() == 0) n = Vector3d(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
-          n.normalize();
-          const bool back = n.dot(dir) > 0;
-          if (back) n = -n;
-          const Vector3d albedo =
-              colored ? Vector3d(w * opt.vertex_colors.row(a) + u * opt.vertex_colors.row(b) +
-                                 v * opt.vertex_colors.row(c))
-                      : opt.base_color;
-          const double head = std::max(0.0, -n.dot(dir)), kd = std::max(0.0, n.dot(key));
-          const Vector3d h = (key - dir).normalized();
-          const double spec = std::pow(std::max(0.0, n.dot(h)), 40.0);
-          double light = 0.22 + 0.5 * head + 0.38 * kd;
-          if (back) light *= 0.6;  // insides of open surfaces read as darker
-          acc += albedo * light + Vector3d::Constant(0.18 * spec);
-        }
-      const size_t i = static_cast<size_t>(y) * W + x;
-      const Vector3d col = acc * inv;
-      for (int k = 0; k < 3; ++k) rgb[3 * i + k] = static_cast<float>(col[k]);
-      depth[i] = dmin;
+        const size_t i = static_cast<size_t>(y) * W + x;
+        const Vector3d col = acc * inv;
+        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = static_cast<float>(col[k]);
+        depth[i] = dmin;
+      }
     }
+    errors.collect();  // this thread's own Embree error slot
   }
-  throw_if_error("rtcIntersect1");
+  errors.throw_if_any("rtcIntersect1");
 
   // Overlay: lattice lines and points, depth-tested against the surface; parts
   // behind it are drawn faintly so the lattice stays readable.

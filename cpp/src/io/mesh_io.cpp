@@ -17,7 +17,10 @@
 #include <atomic>
 #include <cctype>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -202,6 +205,8 @@ class GunzipTemp {
   std::uintmax_t bytes_ = 0;
 };
 
+std::string quote(const std::string& tok);
+
 // Size in bytes of a PLY scalar type name (0 if unknown).
 int ply_type_size(const std::string& t) {
   if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
@@ -236,7 +241,7 @@ std::string check_binary_ply_size(const std::string& file, std::uintmax_t size) 
       std::string name;
       long long n = -1;
       ls >> name >> n;
-      if (n < 0) return "the header has an element with a bad count: '" + line + "'";
+      if (n < 0) return "the header has an element with a bad count: " + quote(line);
       count = static_cast<std::uintmax_t>(n);
     } else if (kw == "property") {
       std::string t;
@@ -262,6 +267,8 @@ std::string check_binary_ply_size(const std::string& file, std::uintmax_t size) 
   return "";
 }
 
+std::string check_ascii_stl(const std::string& file);
+
 // STL has no vertex count to compare with, but binary STL has a face count and
 // ASCII STL an "endsolid" line; a file cut short lacks one or the other.
 std::string check_stl_complete(const std::string& file, std::uintmax_t size) {
@@ -283,13 +290,531 @@ std::string check_stl_complete(const std::string& file, std::uintmax_t size) {
     in.seekg(static_cast<std::streamoff>(size - tail));
     in.read(end.data(), static_cast<std::streamsize>(tail));
     if (end.find("endsolid") == std::string::npos) return "the file is truncated: no 'endsolid' line at its end";
-    return "";
+    return check_ascii_stl(file);
   }
   if (size < 84) return "the file is truncated: a binary STL needs an 84-byte header";
   if (size < want)
     return "truncated or not an STL file: the binary header announces " + std::to_string(n) + " triangles (" + std::to_string(want) +
            " bytes), the file has " + std::to_string(size) + " bytes";
   return "";
+}
+
+// --- strict ASCII checks ---------------------------------------------------------
+// OpenMesh's ASCII readers read with `stream >> value` and keep going after the
+// stream has failed: "nan", "1 x 0", or a file that stops before the header's
+// counts are reached come back as vertices at 0 and faces [0, 0, 0], without any
+// error. The ASCII formats are therefore parsed (OFF) or checked before OpenMesh
+// sees them (PLY, STL) by the code below, which names the line of the problem.
+
+// Splits a line into whitespace-separated tokens, dropping a '#' comment.
+std::vector<std::string> tokens_of(const std::string& line, bool comments) {
+  std::vector<std::string> t;
+  size_t i = 0;
+  const size_t n = comments ? std::min(line.find('#'), line.size()) : line.size();
+  while (i < n) {
+    while (i < n && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+    size_t j = i;
+    while (j < n && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
+    if (j > i) t.push_back(line.substr(i, j - i));
+    i = j;
+  }
+  return t;
+}
+
+// The whole token must be a number (strtod/strtoll leave the end pointer short
+// of the token's end for "1x" or "x").
+bool parse_double(const std::string& tok, double& v) {
+  const char* b = tok.c_str();
+  char* e = nullptr;
+  v = std::strtod(b, &e);
+  return e != b && *e == '\0';
+}
+bool parse_int(const std::string& tok, long long& v) {
+  const char* b = tok.c_str();
+  char* e = nullptr;
+  errno = 0;
+  v = std::strtoll(b, &e, 10);
+  return e != b && *e == '\0' && errno != ERANGE;
+}
+
+// Reads a text file line by line with 1-based line numbers.
+class Lines {
+ public:
+  explicit Lines(const std::string& file) : in_(file, std::ios::binary) {}
+  bool next(std::string& line) {
+    if (!std::getline(in_, line)) return false;
+    ++number_;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    return true;
+  }
+  long long number() const { return number_; }
+  bool ok() const { return static_cast<bool>(in_) || in_.eof(); }
+
+ private:
+  std::ifstream in_;
+  long long number_ = 0;
+};
+
+std::string at_line(long long n) { return "line " + std::to_string(n) + ": "; }
+
+// A token or line for an error message, quoted and cut short; bytes outside
+// printable ASCII are written as \xNN, so that a binary or mis-encoded file
+// still gives a valid (UTF-8) message.
+std::string quote(const std::string& tok) {
+  std::string s = "'";
+  for (size_t i = 0; i < tok.size() && i < 60; ++i) {
+    const unsigned char c = static_cast<unsigned char>(tok[i]);
+    if (c >= 32 && c < 127) {
+      s += static_cast<char>(c);
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      s += buf;
+    }
+  }
+  return s + (tok.size() > 60 ? "...'" : "'");
+}
+
+// True when an OFF file is "OFF BINARY" (left to OpenMesh's binary reader).
+bool off_is_binary(const std::string& file) {
+  Lines in(file);
+  std::string line;
+  while (in.next(line)) {
+    const auto t = tokens_of(line, true);
+    if (t.empty()) continue;
+    return t.size() >= 2 && t[1] == "BINARY";
+  }
+  return false;
+}
+
+// Geomview ASCII OFF: a keyword [ST][C][N]OFF, the counts "V F [E]", V vertex
+// lines "x y z [nx ny nz] [colour] [s t]", F face lines "k i1 .. ik [colour]".
+// '#' starts a comment; blank lines are ignored. Faces are triangulated as fans
+// like the OpenMesh path does; faces with fewer than 3 corners are counted as
+// skipped. Throws MeshIOError naming the line.
+void read_ascii_off(const std::string& file, const std::string& path, MeshData& out) {
+  const char* what = "load_mesh";
+  Lines in(file);
+  std::string line;
+  std::vector<std::string> t;
+  auto next_tokens = [&]() {
+    while (in.next(line)) {
+      t = tokens_of(line, true);
+      if (!t.empty()) return true;
+    }
+    return false;
+  };
+  if (!next_tokens()) fail(what, path, "no OFF header (the file has no data)");
+  std::string kw = t[0];
+  const long long header_line = in.number();
+  bool st = false, col = false, nor = false;
+  {
+    std::string k = kw;
+    if (k.size() > 3 && k.compare(0, 3, "OFF") == 0 &&
+        std::all_of(k.begin() + 3, k.end(), [](unsigned char c) { return std::isdigit(c); }))
+      k = "OFF";
+    if (k.rfind("ST", 0) == 0) st = true, k = k.substr(2);
+    if (k.rfind("C", 0) == 0) col = true, k = k.substr(1);
+    if (k.rfind("N", 0) == 0) nor = true, k = k.substr(1);
+    if (k == "4OFF" || k == "nOFF")
+      fail(what, path, at_line(header_line) + "'" + kw + "' (4D or n-dimensional OFF) is not supported");
+    if (k != "OFF") fail(what, path, at_line(header_line) + "expected an OFF header, found " + quote(kw));
+  }
+  // The counts may follow the keyword on the same line.
+  std::vector<std::string> counts(t.begin() + 1, t.end());
+  // Some published data sets (ModelNet) glue the vertex count to the keyword:
+  // "OFF490 518 0".
+  if (kw.size() > 3 && kw.compare(0, 3, "OFF") == 0 &&
+      std::all_of(kw.begin() + 3, kw.end(), [](unsigned char c) { return std::isdigit(c); })) {
+    counts.insert(counts.begin(), kw.substr(3));
+    kw = "OFF";
+  }
+  long long counts_line = header_line;
+  if (counts.empty()) {
+    if (!next_tokens()) fail(what, path, "the file is truncated: no vertex/face counts after the OFF header");
+    counts = t;
+    counts_line = in.number();
+  }
+  long long nV = -1, nF = -1, nE = 0;
+  if (counts.size() < 2 || counts.size() > 3 || !parse_int(counts[0], nV) || !parse_int(counts[1], nF) ||
+      (counts.size() == 3 && !parse_int(counts[2], nE)) || nV < 0 || nF < 0 || nE < 0)
+    fail(what, path,
+         at_line(counts_line) + "expected the counts 'vertices faces [edges]' (non-negative integers), found " +
+             quote(line));
+  if (nV > std::numeric_limits<int>::max() || nF > std::numeric_limits<int>::max())
+    fail(what, path, at_line(counts_line) + "the counts are too large for this reader");
+
+  const size_t need = 3 + (nor ? 3 : 0);
+  // After the required numbers a vertex line may carry a colour (1 index, RGB
+  // or RGBA) and, for STOFF, 2 texture coordinates; those are not kept.
+  const size_t extra_max = (col ? 4 : 0) + (st ? 2 : 0);
+  std::vector<double> V, N;
+  // Reserve by the header only up to a modest size: a corrupt header must not
+  // allocate gigabytes before the first line is read.
+  V.reserve(static_cast<size_t>(std::min<long long>(nV, 1 << 20)) * 3);
+  for (long long v = 0; v < nV; ++v) {
+    if (!next_tokens())
+      fail(what, path,
+           "the file is truncated: the header announces " + std::to_string(nV) + " vertices, the file ends after " +
+               std::to_string(v));
+    const std::string L = at_line(in.number());
+    if (t.size() < need)
+      fail(what, path,
+           L + "vertex " + std::to_string(v) + " has " + std::to_string(t.size()) + " numbers, expected " +
+               std::to_string(need) + (nor ? " (x y z nx ny nz)" : " (x y z)"));
+    if (t.size() > need + extra_max)
+      fail(what, path,
+           L + "vertex " + std::to_string(v) + " has " + std::to_string(t.size()) + " values, at most " +
+               std::to_string(need + extra_max) + " expected for '" + kw +
+               "' (a face line where a vertex was expected? the header announces " + std::to_string(nV) +
+               " vertices)");
+    for (size_t k = 0; k < t.size(); ++k) {
+      double x = 0;
+      if (!parse_double(t[k], x)) fail(what, path, L + "vertex " + std::to_string(v) + ": " + quote(t[k]) + " is not a number");
+      if (k < need && !std::isfinite(x))
+        fail(what, path,
+             L + "vertex " + std::to_string(v) + " has a non-finite " + (k < 3 ? "coordinate " : "normal ") +
+                 quote(t[k]) + " (NaN, Inf or out of double range)");
+      if (k < 3)
+        V.push_back(x);
+      else if (k < need)
+        N.push_back(x);
+    }
+  }
+  std::vector<std::array<int, 3>> tris;
+  tris.reserve(static_cast<size_t>(std::min<long long>(nF, 1 << 20)));
+  std::vector<int> idx;
+  for (long long f = 0; f < nF; ++f) {
+    if (!next_tokens())
+      fail(what, path,
+           "the file is truncated: the header announces " + std::to_string(nF) + " faces, the file ends after " +
+               std::to_string(f));
+    const std::string L = at_line(in.number());
+    long long k = -1;
+    if (!parse_int(t[0], k) || k < 0)
+      fail(what, path, L + "face " + std::to_string(f) + ": expected the number of corners, found " + quote(t[0]));
+    // A face may end with a colour: nothing, a colour-map index, RGB or RGBA.
+    if (static_cast<long long>(t.size()) < 1 + k || static_cast<long long>(t.size()) > 1 + k + 4)
+      fail(what, path,
+           L + "face " + std::to_string(f) + " announces " + std::to_string(k) + " corners but the line has " +
+               std::to_string(t.size() - 1) + " values after the count");
+    idx.clear();
+    for (long long c = 0; c < k; ++c) {
+      long long i = -1;
+      const std::string& tok = t[static_cast<size_t>(1 + c)];
+      if (!parse_int(tok, i)) fail(what, path, L + "face " + std::to_string(f) + ": " + quote(tok) + " is not a vertex index");
+      if (i < 0 || i >= nV)
+        fail(what, path,
+             L + "face " + std::to_string(f) + " refers to vertex " + tok + ", but the file has " +
+                 std::to_string(nV) + " vertices");
+      idx.push_back(static_cast<int>(i));
+    }
+    for (size_t c = static_cast<size_t>(1 + k); c < t.size(); ++c) {
+      double x = 0;
+      if (!parse_double(t[c], x))
+        fail(what, path, L + "face " + std::to_string(f) + ": colour value " + quote(t[c]) + " is not a number");
+    }
+    ++out.polygons;
+    if (k < 3) {
+      ++out.skipped_faces;
+      continue;
+    }
+    if (k > 3) ++out.triangulated_polygons;
+    for (size_t c = 1; c + 1 < idx.size(); ++c) tris.push_back({idx[0], idx[c], idx[c + 1]});
+  }
+  // Anything after the last face means the counts do not describe the file.
+  if (next_tokens())
+    fail(what, path,
+         at_line(in.number()) + "unexpected data after the last of the " + std::to_string(nF) +
+             " faces the header announces: " + quote(line));
+  if (!in.ok()) fail(what, path, "read error");
+
+  out.V.resize(static_cast<Index>(nV), 3);
+  for (Index v = 0; v < nV; ++v)
+    for (int c = 0; c < 3; ++c) out.V(v, c) = V[static_cast<size_t>(3 * v + c)];
+  if (nor) {
+    out.N.resize(static_cast<Index>(nV), 3);
+    for (Index v = 0; v < nV; ++v)
+      for (int c = 0; c < 3; ++c) out.N(v, c) = N[static_cast<size_t>(3 * v + c)];
+  }
+  out.F.resize(static_cast<Index>(tris.size()), 3);
+  for (size_t f = 0; f < tris.size(); ++f)
+    for (int c = 0; c < 3; ++c) out.F(static_cast<Index>(f), c) = tris[f][c];
+}
+
+// ASCII PLY: every record of every element must have exactly the values its
+// properties ask for, integers where the type is an integer, and finite x, y, z
+// for vertices. Binary PLY is checked by check_binary_ply_size. Returns "" or
+// the problem, naming the line.
+std::string check_ascii_ply(const std::string& file) {
+  struct Prop {
+    std::string name;
+    bool list = false, int_count = true, int_value = false;
+  };
+  struct Element {
+    std::string name;
+    long long count = 0;
+    std::vector<Prop> props;
+  };
+  auto is_int = [](const std::string& ty) { return ply_type_size(ty) > 0 && ty.find("float") == std::string::npos && ty != "double"; };
+  Lines in(file);
+  std::string line;
+  if (!in.next(line) || line != "ply") return "";  // the reader will complain
+  std::vector<Element> elements;
+  bool ascii = false, ended = false;
+  while (in.next(line)) {
+    const auto t = tokens_of(line, false);
+    if (t.empty()) continue;
+    const std::string L = at_line(in.number());
+    if (t[0] == "format") {
+      ascii = t.size() >= 2 && t[1] == "ascii";
+    } else if (t[0] == "element") {
+      Element e;
+      if (t.size() != 3 || !parse_int(t[2], e.count) || e.count < 0)
+        return L + "bad element line in the header: " + quote(line);
+      e.name = t[1];
+      elements.push_back(e);
+    } else if (t[0] == "property") {
+      if (elements.empty()) return L + "a property before any element in the header";
+      Prop pr;
+      if (t.size() == 5 && t[1] == "list") {
+        pr.list = true;
+        pr.int_count = is_int(t[2]);
+        pr.int_value = is_int(t[3]);
+        pr.name = t[4];
+        if (!pr.int_count || ply_type_size(t[3]) == 0) return L + "bad list property in the header: " + quote(line);
+      } else if (t.size() == 3 && ply_type_size(t[1]) > 0) {
+        pr.int_value = is_int(t[1]);
+        pr.name = t[2];
+      } else {
+        return L + "bad property line in the header: " + quote(line);
+      }
+      elements.back().props.push_back(pr);
+    } else if (t[0] == "end_header") {
+      ended = true;
+      break;
+    }
+  }
+  if (!ended || !ascii) return "";  // binary, or a header problem the other checks report
+  std::vector<std::string> t;
+  auto next_tokens = [&]() {
+    while (in.next(line)) {
+      t = tokens_of(line, false);
+      if (!t.empty()) return true;
+    }
+    return false;
+  };
+  for (const Element& e : elements) {
+    const bool vertex = e.name == "vertex";
+    for (long long r = 0; r < e.count; ++r) {
+      const std::string what = e.name + " " + std::to_string(r);
+      if (!next_tokens())
+        return "the file is truncated: the header announces " + std::to_string(e.count) + " " + e.name +
+               " records, the file ends after " + std::to_string(r);
+      const std::string L = at_line(in.number());
+      size_t k = 0;
+      for (const Prop& pr : e.props) {
+        long long n = 1;
+        if (pr.list) {
+          if (k >= t.size()) return L + what + " has too few values (property '" + pr.name + "' is missing)";
+          if (!parse_int(t[k], n) || n < 0)
+            return L + what + ": list length " + quote(t[k]) + " of '" + pr.name + "' is not a non-negative integer";
+          ++k;
+        }
+        for (long long c = 0; c < n; ++c, ++k) {
+          if (k >= t.size()) return L + what + " has too few values (property '" + pr.name + "' is missing)";
+          double x = 0;
+          long long i = 0;
+          if (pr.int_value ? !parse_int(t[k], i) : !parse_double(t[k], x))
+            return L + what + ": " + quote(t[k]) + " is not " + (pr.int_value ? "an integer" : "a number") +
+                   " (property '" + pr.name + "')";
+          if (vertex && !pr.list && (pr.name == "x" || pr.name == "y" || pr.name == "z") && !pr.int_value &&
+              !std::isfinite(x))
+            return L + what + " has a non-finite coordinate " + pr.name + " = " + quote(t[k]);
+        }
+      }
+      if (k != t.size())
+        return L + what + " has " + std::to_string(t.size()) + " values, its properties need " + std::to_string(k);
+    }
+  }
+  if (next_tokens())
+    return at_line(in.number()) + "unexpected data after the last record the header announces: " + quote(line);
+  return "";
+}
+
+// ASCII STL: solid / facet normal a b c / outer loop / 3 x vertex x y z /
+// endloop / endfacet ... endsolid, with numbers that parse completely and
+// finite vertex coordinates. Returns "" or the problem, naming the line.
+std::string check_ascii_stl(const std::string& file) {
+  // A token stream over the lines (streamed: ASCII STL files can be large).
+  Lines in(file);
+  std::string line;
+  std::vector<std::string> t;
+  size_t at = 0;
+  bool more = true;
+  auto peek = [&]() -> const std::string* {
+    while (at >= t.size()) {
+      if (!more || !in.next(line)) {
+        more = false;
+        return nullptr;
+      }
+      t = tokens_of(line, false);
+      at = 0;
+    }
+    return &t[at];
+  };
+  auto word = [&]() {
+    const std::string* w = peek();
+    return w ? lower(*w) : std::string();
+  };
+  auto L = [&]() { return at_line(in.number()); };
+  auto expect = [&](const char* w) -> std::string {
+    const std::string* x = peek();
+    if (!x) return "the file is truncated: it ends where '" + std::string(w) + "' was expected";
+    if (lower(*x) != w) return L() + "expected '" + w + "', found " + quote(*x);
+    ++at;
+    return "";
+  };
+  auto numbers = [&](const std::string& what, bool finite) -> std::string {
+    for (int c = 0; c < 3; ++c, ++at) {
+      const std::string* x = peek();
+      if (!x) return "the file is truncated: it ends inside a '" + what + "' line";
+      double v = 0;
+      if (!parse_double(*x, v)) return L() + what + ": " + quote(*x) + " is not a number";
+      if (finite && !std::isfinite(v)) return L() + what + " has a non-finite coordinate " + quote(*x);
+    }
+    return "";
+  };
+  if (word() != "solid") return "";  // not ASCII; the reader decides
+  // "solid" may be followed by a name of any number of words, up to the first facet.
+  ++at;
+  while (peek() && word() != "facet" && word() != "endsolid") ++at;
+  std::string e;
+  while (word() == "facet") {
+    ++at;
+    if (!(e = expect("normal")).empty() || !(e = numbers("facet normal", false)).empty() ||
+        !(e = expect("outer")).empty() || !(e = expect("loop")).empty())
+      return e;
+    for (int c = 0; c < 3; ++c)
+      if (!(e = expect("vertex")).empty() || !(e = numbers("vertex", true)).empty()) return e;
+    if (!(e = expect("endloop")).empty() || !(e = expect("endfacet")).empty()) return e;
+  }
+  return expect("endsolid");  // a name may follow; anything after it is ignored
+}
+
+// Wavefront OBJ, read here instead of by OpenMesh: its reader silently drops a
+// face with a repeated corner ("f 1 1 1"), removes repeated corners from others
+// ("f 1 2 2 3" becomes one triangle) and skips "v nan 0 0" lines, which shifts
+// every later vertex index. Here every face is kept as stored, like the OFF and
+// PLY paths do, so that check_mesh sees the file's own defects. Keywords other
+// than v, vn and f (vt, g, o, s, usemtl, l, ...) are ignored. Vertex normals are
+// those the face corners name ("f 1//3"); they are returned only when every
+// vertex gets one. Throws MeshIOError naming the line.
+void read_obj(const std::string& file, const std::string& path, MeshData& out) {
+  const char* what = "load_mesh";
+  Lines in(file);
+  std::string line;
+  std::vector<double> V, VN;
+  std::vector<std::array<int, 3>> tris;
+  std::vector<int> normal_of;  // per vertex: index into VN or -1
+  struct Pending {             // positive indices may name vertices defined later
+    long long line, index;
+  };
+  Pending worst{0, 0};
+  std::vector<long long> idx, nidx;
+  while (in.next(line)) {
+    const auto t = tokens_of(line, true);
+    if (t.empty()) continue;
+    const std::string L = at_line(in.number());
+    if (t[0] == "v" || t[0] == "vn") {
+      const bool pos = t[0] == "v";
+      // v x y z [w] or v x y z r g b (a colour extension); vn x y z
+      if (t.size() < 4 || t.size() > (pos ? 8u : 4u))
+        fail(what, path,
+             L + "'" + t[0] + "' has " + std::to_string(t.size() - 1) + " values, expected " +
+                 (pos ? "3 (x y z, optionally w or r g b)" : "3"));
+      for (size_t k = 1; k < t.size(); ++k) {
+        double x = 0;
+        if (!parse_double(t[k], x)) fail(what, path, L + quote(t[k]) + " is not a number");
+        if (pos && k <= 3 && !std::isfinite(x))
+          fail(what, path,
+               L + "vertex " + std::to_string(V.size() / 3) + " has a non-finite coordinate " + quote(t[k]) +
+                   " (NaN, Inf or out of double range)");
+        if (k <= 3) (pos ? V : VN).push_back(x);
+      }
+      if (V.size() / 3 > static_cast<size_t>(std::numeric_limits<int>::max()))
+        fail(what, path, L + "too many vertices for this reader");
+    } else if (t[0] == "f") {
+      idx.clear();
+      nidx.clear();
+      const long long nv = static_cast<long long>(V.size() / 3), nn = static_cast<long long>(VN.size() / 3);
+      for (size_t k = 1; k < t.size(); ++k) {
+        // v, v/vt, v/vt/vn or v//vn; negative indices count back from the last
+        // vertex (normal) defined so far.
+        const std::string& c = t[k];
+        const size_t s1 = c.find('/');
+        const size_t s2 = s1 == std::string::npos ? std::string::npos : c.find('/', s1 + 1);
+        long long v = 0, vt = 0, vn = 0;
+        const std::string a = c.substr(0, s1);
+        const std::string b = s1 == std::string::npos ? "" : c.substr(s1 + 1, s2 == std::string::npos ? std::string::npos : s2 - s1 - 1);
+        const std::string d = s2 == std::string::npos ? "" : c.substr(s2 + 1);
+        if (!parse_int(a, v) || v == 0 || (!b.empty() && !parse_int(b, vt)) || (!d.empty() && !parse_int(d, vn)) ||
+            (s2 != std::string::npos && d.empty()) || (s1 != std::string::npos && s2 == std::string::npos && b.empty()) ||
+            c.find('/', s2 == std::string::npos ? c.size() : s2 + 1) != std::string::npos)
+          fail(what, path, L + "face corner " + quote(c) + " is not 'v', 'v/vt', 'v/vt/vn' or 'v//vn' with v a non-zero integer");
+        if (v < 0) {
+          if (-v > nv)
+            fail(what, path,
+                 L + "face corner " + quote(c) + " refers back further than the " + std::to_string(nv) +
+                     " vertices defined before it");
+          v = nv + v;
+        } else {
+          v -= 1;
+          if (v >= worst.index) worst = {in.number(), v + 1};
+        }
+        if (v > std::numeric_limits<int>::max()) fail(what, path, L + "vertex index " + quote(c) + " is too large");
+        if (vn < 0) vn = nn + vn + 1;
+        if (!d.empty() && (vn < 1 || vn > nn))
+          fail(what, path,
+               L + "face corner " + quote(c) + " refers to normal " + d + ", but " + std::to_string(nn) +
+                   " normals are defined before it");
+        idx.push_back(v);
+        nidx.push_back(d.empty() ? -1 : vn - 1);
+      }
+      ++out.polygons;
+      if (idx.size() < 3) {
+        ++out.skipped_faces;
+        continue;
+      }
+      if (idx.size() > 3) ++out.triangulated_polygons;
+      for (size_t k = 1; k + 1 < idx.size(); ++k)
+        tris.push_back({static_cast<int>(idx[0]), static_cast<int>(idx[k]), static_cast<int>(idx[k + 1])});
+      for (size_t k = 0; k < idx.size(); ++k)
+        if (nidx[k] >= 0) {
+          if (normal_of.size() <= static_cast<size_t>(idx[k])) normal_of.resize(static_cast<size_t>(idx[k]) + 1, -1);
+          normal_of[static_cast<size_t>(idx[k])] = static_cast<int>(nidx[k]);
+        }
+    }
+  }
+  if (!in.ok()) fail(what, path, "read error");
+  const Index nV = static_cast<Index>(V.size() / 3);
+  if (worst.index > nV)
+    fail(what, path,
+         at_line(worst.line) + "a face refers to vertex " + std::to_string(worst.index) + " (1-based), but the file has " +
+             std::to_string(nV) + " vertices");
+  out.V.resize(nV, 3);
+  for (Index v = 0; v < nV; ++v)
+    for (int c = 0; c < 3; ++c) out.V(v, c) = V[static_cast<size_t>(3 * v + c)];
+  if (nV > 0 && static_cast<Index>(normal_of.size()) == nV &&
+      std::all_of(normal_of.begin(), normal_of.end(), [](int n) { return n >= 0; })) {
+    out.N.resize(nV, 3);
+    for (Index v = 0; v < nV; ++v)
+      for (int c = 0; c < 3; ++c) out.N(v, c) = VN[static_cast<size_t>(3 * normal_of[static_cast<size_t>(v)] + c)];
+    if (!out.N.allFinite()) out.N.resize(0, 3);  // unusable normals are dropped, as on the OpenMesh path
+  }
+  out.F.resize(static_cast<Index>(tris.size()), 3);
+  for (size_t f = 0; f < tris.size(); ++f)
+    for (int c = 0; c < 3; ++c) out.F(static_cast<Index>(f), c) = tris[f][c];
 }
 
 }  // namespace
@@ -335,10 +860,23 @@ MeshData read_mesh(const std::string& path) {
     if (file_size == 0) fail(what, path, "the decompressed file is empty");
   }
   {
-    const std::string problem = ext == "ply"   ? check_binary_ply_size(file, file_size)
+    std::string problem = ext == "ply"   ? check_binary_ply_size(file, file_size)
                                 : ext == "stl" ? check_stl_complete(file, file_size)
                                                : std::string();
+    if (problem.empty() && ext == "ply") problem = check_ascii_ply(file);
     if (!problem.empty()) fail(what, path, problem);
+  }
+  if (ext == "obj" || (ext == "off" && !off_is_binary(file))) {
+    if (ext == "obj")
+      read_obj(file, path, out);
+    else
+      read_ascii_off(file, path, out);
+    if (out.V.rows() == 0) fail(what, path, "no vertices found (not a ." + ext + " file, or an empty mesh)");
+    if (out.F.rows() == 0)
+      fail(what, path,
+           "no faces found (" + std::to_string(out.V.rows()) +
+               " vertices): a point cloud or a truncated file, not a surface");
+    return out;
   }
 
   std::lock_guard<std::mutex> lock(io_mutex());

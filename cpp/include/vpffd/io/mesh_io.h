@@ -8,7 +8,16 @@
 /// vertex is merged or dropped and no face is discarded, even when the surface is
 /// non-manifold (OpenMesh's own mesh would split such faces off), so that
 /// vpffd::check_mesh reports the defects of the file, not of a repaired copy.
-/// (STL has no shared vertices; its reader merges equal positions.)
+/// (STL has no shared vertices; its reader merges equal positions.) A face with
+/// a repeated corner ("f 1 1 1", "3 0 0 0") is kept as stored, like any other;
+/// faces with fewer than 3 corners are counted in MeshData::skipped_faces.
+///
+/// ASCII OFF and OBJ are parsed by vpffd itself, and ASCII PLY and STL are
+/// checked before OpenMesh reads them: OpenMesh's stream readers turn "nan",
+/// "1 x 0" or a file shorter than its header says into vertices at 0 and faces
+/// [0, 0, 0] without an error. Anything that is not a finite number where a
+/// coordinate belongs, a line with too few or too many values, or counts that do
+/// not match the file is a MeshIOError naming the line.
 ///
 /// This header has no OpenMesh include: the implementation lives in cpp/src/io.
 
@@ -37,7 +46,8 @@ struct MeshData {
 /// @returns vertices, triangles and, when present, vertex normals
 /// @throws MeshIOError naming the file and the problem: missing, a directory,
 ///         empty, unknown extension, unreadable, truncated, no faces, face index
-///         out of range, non-finite coordinates
+///         out of range, non-finite coordinates, a malformed line of an ASCII
+///         file (with its line number)
 MeshData read_mesh(const std::string& path);
 
 /// Options of write_mesh.
