@@ -100,15 +100,18 @@ class Camera:
         dist = margin * radius / math.sin(min(half_v, half_h))
         return cls(centre + dist * d, centre, up, fov)
 
-    def ray(self, x, y, size=(800, 600)):
-        """(origin, unit direction) of the ray through pixel (x, y) of an image of ``size``."""
-        w, h = _size(size, "Camera.ray")
+    def _frame(self):
+        """Forward, right and up unit vectors and tan(fov / 2)."""
         f = self.target - self.eye
         f = f / np.linalg.norm(f)
         r = np.cross(f, self.up)
         r = r / np.linalg.norm(r)
-        u = np.cross(r, f)
-        t = math.tan(math.radians(self.fov) / 2)
+        return f, r, np.cross(r, f), math.tan(math.radians(self.fov) / 2)
+
+    def ray(self, x, y, size=(800, 600)):
+        """(origin, unit direction) of the ray through pixel (x, y) of an image of ``size``."""
+        w, h = _size(size, "Camera.ray")
+        f, r, u, t = self._frame()
         sx = (2.0 * (float(x) + 0.5) / w - 1.0) * t * w / h
         sy = (1.0 - 2.0 * (float(y) + 0.5) / h) * t
         d = f + sx * r + sy * u
@@ -119,12 +122,7 @@ class Camera:
         (x, y) lies in pixel (floor(x + 0.5), floor(y + 0.5)). NaN behind the camera."""
         w, h = _size(size, "Camera.project")
         P = np.atleast_2d(np.asarray(points, dtype=np.float64)) - self.eye
-        f = self.target - self.eye
-        f = f / np.linalg.norm(f)
-        r = np.cross(f, self.up)
-        r = r / np.linalg.norm(r)
-        u = np.cross(r, f)
-        t = math.tan(math.radians(self.fov) / 2)
+        f, r, u, t = self._frame()
         z = P @ f
         with np.errstate(divide="ignore", invalid="ignore"):
             x = ((P @ r) / z / (t * w / h) + 1.0) * 0.5 * w - 0.5
