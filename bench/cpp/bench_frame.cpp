@@ -102,19 +102,24 @@ int main(int argc, char** argv) {
     std::string why;
     for (const auto& dev : vpffd::vulkan::devices(&why)) {
       if (!dev.suitable) continue;
-      vpffd::vulkan::VulkanDeformer g(m.V, m.F, L, vpffd::OutsidePolicy::Error, std::to_string(dev.index));
-      vpffd::CorrectionOptions o;
-      vpffd::DeformResult r;
-      std::vector<double> gpu;
-      const double t_xyz = median_ms(
-          [&] {
-            r = g.deform(P, o, false);
-            gpu.push_back(g.last_timings().gpu_total);
-          },
-          repeats);
-      std::nth_element(gpu.begin(), gpu.begin() + gpu.size() / 2, gpu.end());
-      std::printf("%-28s %10s %12.3f %12.3f %12.1e\n", ("vulkan, " + dev.name).substr(0, 28).c_str(), "", t_xyz,
-                  gpu[gpu.size() / 2], std::abs(r.volume - r.target_volume) / r.target_volume);
+      for (auto prec : {vpffd::vulkan::Precision::Float64, vpffd::vulkan::Precision::FloatFloat}) {
+        if (prec == vpffd::vulkan::Precision::Float64 && !dev.float64) continue;
+        vpffd::vulkan::VulkanDeformer g(m.V, m.F, L, vpffd::OutsidePolicy::Error, std::to_string(dev.index), prec);
+        vpffd::CorrectionOptions o;
+        vpffd::DeformResult r;
+        std::vector<double> gpu;
+        const double t_xyz = median_ms(
+            [&] {
+              r = g.deform(P, o, false);
+              gpu.push_back(g.last_timings().gpu_total);
+            },
+            repeats);
+        std::nth_element(gpu.begin(), gpu.begin() + gpu.size() / 2, gpu.end());
+        const std::string label = std::string("vulkan ") + (prec == vpffd::vulkan::Precision::Float64 ? "f64" : "ff") +
+                                  ", " + dev.name;
+        std::printf("%-28s %10s %12.3f %12.3f %12.1e\n", label.substr(0, 28).c_str(), "", t_xyz,
+                    gpu[gpu.size() / 2], std::abs(r.volume - r.target_volume) / r.target_volume);
+      }
     }
     if (!why.empty()) std::printf("vulkan: %s\n", why.c_str());
 #endif

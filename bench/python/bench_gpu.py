@@ -104,7 +104,7 @@ def bench_mesh(name, mesh, args):
     lat = vpffd.Lattice.around(mesh, shape=args.shape, degree=args.degree)
     P = edit(lat)
     cpu = vpffd.Deformer(mesh, lat, backend="openmp" if "openmp" in vpffd.available_backends() else "serial")
-    gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=args.device)
+    gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=args.device, gpu_precision=args.precision)
     r = args.repeats
     cpu.deform(P)  # warm caches
     cpu_ffd = median_ms(lambda: cpu.ffd(P), r)
@@ -132,7 +132,7 @@ def bench_mesh(name, mesh, args):
     diag = float(np.linalg.norm(lat.box_max - lat.box_min))
     med = statistics.median
     row = dict(
-        model=name, vertices=mesh.n_vertices, faces=int(mesh.faces.shape[0]),
+        model=name, vertices=mesh.n_vertices, faces=int(mesh.faces.shape[0]), precision=gpu.gpu_precision,
         lattice=f"{args.shape}^3 deg {args.degree}",
         gpu_ffd_ms=med(t["gpu_ffd_ms"] for t in gx),
         cpu_ffd_ms=cpu_ffd,
@@ -150,7 +150,7 @@ def bench_mesh(name, mesh, args):
     return row
 
 
-def bench_scaling(args, device):
+def bench_scaling(args, device, precision):
     """Time per xyz frame against triangles on subdivided icospheres."""
     rows = []
     r = args.repeats
@@ -162,7 +162,7 @@ def bench_scaling(args, device):
         lat = vpffd.Lattice.around(mesh, shape=args.shape, degree=args.degree)
         P = edit(lat)
         Pflat = np.ascontiguousarray(P.reshape(-1, 3))
-        gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=args.device)
+        gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=args.device, gpu_precision=args.precision)
         setup_s = time.perf_counter() - t0
         first = gpu.deform(P)  # shader JIT, first touch
         gt, kept, e2e = [], [], []
@@ -198,7 +198,7 @@ def bench_scaling(args, device):
             ("gpu_ffd_ms", "{:.3f}"), ("gpu_step_ms", "{:.3f}"), ("gpu_xyz_kept_ms", "{:.3f}"),
             ("gpu_xyz_e2e_ms", "{:.3f}"), ("ns_per_face", "{:.3f}")] + \
         ([("cpu_xyz_ms", "{:.2f}")] if args.cpu else []) + [("volume_error_gpu", "{:.1e}"), ("setup_s", "{:.1f}")]
-    print(f"\nScaling (ms per xyz frame, medians of {r}) on {device['name']} ({device['type']}), "
+    print(f"\nScaling (ms per xyz frame, medians of {r}) on {device['name']} ({device['type']}, {precision} sums), "
           f"{args.shape}^3 lattice of degree {args.degree}")
     cells = [[fmt.format(x[k]) for k, fmt in cols] for x in rows]
     width = [max(len(k), *(len(c[i]) for c in cells)) for i, (k, _) in enumerate(cols)]
@@ -219,8 +219,8 @@ COLUMNS = [("model", "model", "{}"), ("vertices", "vertices", "{}"), ("gpu_ffd_m
            ("max_vertex_dev_rel", "dev/diag", "{:.1e}")]
 
 
-def print_table(rows, device):
-    print(f"\nTable 2 (ms, medians) on {device['name']} ({device['type']}); CPU: {platform.processor() or 'cpu'}, "
+def print_table(rows, device, precision):
+    print(f"\nTable 2 (ms, medians) on {device['name']} ({device['type']}, {precision} sums); CPU: {platform.processor() or 'cpu'}, "
           f"{os.cpu_count()} cores")
     head = [c[1] for c in COLUMNS]
     cells = [[fmt.format(r[k]) for k, _, fmt in COLUMNS] for r in rows]
@@ -240,6 +240,9 @@ def main(argv=None):
     ap.add_argument("--max-vertices", type=int, default=0, help="skip larger meshes (0: none)")
     ap.add_argument("--device", default=os.environ.get("VPFFD_VULKAN_DEVICE", ""),
                     help="Vulkan device index or name part (default: VPFFD_VULKAN_DEVICE, else the first suitable)")
+    ap.add_argument("--precision", default="auto", choices=["auto", "float64", "float-float"],
+                    help="how the device sums (default auto: float64 where the device has it); the result files "
+                         "of float-float runs end in _ff")
     ap.add_argument("--out", default=str(ROOT / "bench" / "results"))
     ap.add_argument("--scaling", action="store_true",
                     help="time per frame against triangles on icospheres built in code (see above)")
@@ -250,19 +253,22 @@ def main(argv=None):
     if not vpffd._core.has_vulkan:
         sys.exit("bench_gpu: this vpffd build has no Vulkan backend")
     probe = vpffd.Deformer(vpffd.shapes.icosphere(1), vpffd.Lattice.around(vpffd.shapes.icosphere(1), shape=4),
-                           backend="vulkan", device=args.device)
+                           backend="vulkan", device=args.device, gpu_precision=args.precision)
     device = probe.device
     slug = re.sub(r"[^A-Za-z0-9]+", "_", device["name"]).strip("_").lower()
+    if probe.gpu_precision == "float-float":
+        slug += "_ff"
     out = Path(args.out)
     if args.scaling:
-        rows, fit = bench_scaling(args, device)
+        rows, fit = bench_scaling(args, device, probe.gpu_precision)
         out.mkdir(parents=True, exist_ok=True)
         with open(out / f"gpu_scaling_{slug}.csv", "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
             w.writeheader()
             w.writerows(rows)
         meta = dict(device=device, cpu=platform.processor(), cores=os.cpu_count(), python=platform.python_version(),
-                    vpffd=vpffd.__version__, shape=args.shape, degree=args.degree, repeats=args.repeats, fit=fit,
+                    vpffd=vpffd.__version__, precision=probe.gpu_precision, shape=args.shape, degree=args.degree,
+                    repeats=args.repeats, fit=fit,
                     rows=rows)
         (out / f"gpu_scaling_{slug}.json").write_text(json.dumps(meta, indent=1))
         print(f"wrote {out / f'gpu_scaling_{slug}.csv'} and .json", file=sys.stderr)
@@ -271,14 +277,15 @@ def main(argv=None):
     for name, mesh in meshes(args.max_vertices):
         print(f"{name}: {mesh.n_vertices} vertices ...", file=sys.stderr, flush=True)
         rows.append(bench_mesh(name, mesh, args))
-    print_table(rows, device)
+    print_table(rows, device, probe.gpu_precision)
     out.mkdir(parents=True, exist_ok=True)
     with open(out / f"gpu_{slug}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]) if rows else ["model"])
         w.writeheader()
         w.writerows(rows)
     meta = dict(device=device, cpu=platform.processor(), cores=os.cpu_count(), python=platform.python_version(),
-                vpffd=vpffd.__version__, shape=args.shape, degree=args.degree, repeats=args.repeats, rows=rows)
+                vpffd=vpffd.__version__, precision=probe.gpu_precision, shape=args.shape, degree=args.degree,
+                repeats=args.repeats, rows=rows)
     (out / f"gpu_{slug}.json").write_text(json.dumps(meta, indent=1))
     print(f"wrote {out / f'gpu_{slug}.csv'} and .json", file=sys.stderr)
 

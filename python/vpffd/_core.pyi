@@ -86,7 +86,7 @@ class Deformer:
     def origin(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]:
         ...
 class VulkanDeformer:
-    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], lattice: LatticeSpec, outside: str = 'error', device: str = '') -> None:
+    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], lattice: LatticeSpec, outside: str = 'error', device: str = '', precision: str = 'auto') -> None:
         ...
     def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], preserve_volume: bool = True, axes: str = 'xyz', weights: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 1]"] | None = None, fixed: collections.abc.Sequence[typing.SupportsInt | typing.SupportsIndex] | None = None, constraints: collections.abc.Sequence[tuple[typing.SupportsInt | typing.SupportsIndex, typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"]]] = [], target_volume: typing.SupportsFloat | typing.SupportsIndex | None = None, method: str = 'traversal', threads: typing.SupportsInt | typing.SupportsIndex = 0, allow_open: bool = False, rounds: typing.SupportsInt | typing.SupportsIndex = 1, read_vertices: bool = True) -> dict:
         ...
@@ -105,6 +105,11 @@ class VulkanDeformer:
     @property
     def index_buffer_handle(self) -> int:
         ...
+    @property
+    def precision(self) -> str:
+        """
+        How the device sums: 'float64' or 'float-float'.
+        """
     @property
     def origin(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]:
         ...

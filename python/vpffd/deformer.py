@@ -17,6 +17,8 @@ BackendUnavailableError = _core.BackendUnavailableError
 
 _CPU_BACKENDS = ("serial", "openmp")
 _VULKAN_ENV = "VPFFD_VULKAN_DEVICE"
+_PRECISION_ENV = "VPFFD_VULKAN_PRECISION"
+_PRECISIONS = ("auto", "float64", "float-float")
 _TYPE_RANK = {"discrete": 0, "integrated": 1, "virtual": 2, "other": 3, "cpu": 4}
 # backend="auto" takes a GPU from this many vertices on. A GPU frame has a fixed
 # cost the CPU does not: one submission and fence wait, ~4 dispatches per axis step
@@ -33,7 +35,8 @@ def vulkan_devices() -> list:
     """The Vulkan devices, one dict each: ``index``, ``name``, ``type`` ("discrete",
     "integrated", "virtual", "cpu" for a software device such as lavapipe, or
     "other"), ``memory_bytes`` (largest device-local heap), ``api_version``,
-    ``driver``, ``float64`` (shaderFloat64), ``suitable`` and, when not, ``reason``.
+    ``driver``, ``float64`` (shaderFloat64; without it the sums are float-float),
+    ``suitable`` and, when not, ``reason``.
     Empty when this build has no Vulkan backend or there is no loader or driver."""
     if not getattr(_core, "has_vulkan", False):
         return []
@@ -169,10 +172,10 @@ class Deformer:
         "auto" takes a GPU through Vulkan when there is one and the mesh has at
         least ``AUTO_GPU_MIN_VERTICES`` (20,000) vertices, else the CPU (a named
         ``device`` is always used); ``available_backends()`` lists them.
-        "vulkan" runs every frame on the device (float32 positions, float64 sums:
-        vertices within ~1e-7 of the lattice size of the CPU's, volume exact to
-        ~1e-9) and raises BackendUnavailableError saying why when there is no
-        suitable device.
+        "vulkan" runs every frame on the device (float32 positions, float64 or
+        float-float sums: vertices within ~1e-7 of the lattice size of the CPU's,
+        volume exact to ~1e-9) and raises BackendUnavailableError saying why when
+        there is no suitable device.
     outside : {"error", "extrapolate"}
         vertices outside the lattice box raise (default) or follow the boundary
         polynomial pieces.
@@ -182,19 +185,31 @@ class Deformer:
         Vulkan device: an index or part of its name (``vulkan_devices()``); default
         the VPFFD_VULKAN_DEVICE environment variable, else the first suitable one
         (GPUs before software devices). Naming one makes "auto" use Vulkan.
+    gpu_precision : {"auto", "float64", "float-float"}, optional
+        How the Vulkan backend sums (weights, coefficients, volumes, offsets):
+        float64, or float-float pairs (about 48 bits from float32 arithmetic, for
+        devices without float64 and those where it is slow; same tolerances).
+        Default: the VPFFD_VULKAN_PRECISION environment variable, else "auto"
+        (float64 where the device has it). Ignored on the CPU, which is float64.
     """
 
     def __init__(self, mesh, lattice: Lattice, backend: str = "auto", outside: str = "error", threads=None,
-                 device=None):
+                 device=None, gpu_precision=None):
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice: expected a vpffd.Lattice, got {type(lattice).__name__}")
+        precision = gpu_precision if gpu_precision is not None else os.environ.get(_PRECISION_ENV) or "auto"
+        if precision not in _PRECISIONS:
+            where = "gpu_precision" if gpu_precision is not None else _PRECISION_ENV
+            raise InvalidInputError(f"{where}: expected one of {', '.join(map(repr, _PRECISIONS))}, "
+                                    f"got {precision!r}")
         self.mesh = Mesh.from_any(mesh)
         self.lattice = lattice
         self.backend, self._threads, selector = _resolve_backend(backend, threads, device, self.mesh.n_vertices)
         self._vk = None
         if self.backend == "vulkan":
             try:
-                self._vk = _core.VulkanDeformer(self.mesh.vertices, self.mesh.faces, lattice._spec, outside, selector)
+                self._vk = _core.VulkanDeformer(self.mesh.vertices, self.mesh.faces, lattice._spec, outside, selector,
+                                                precision)
             except (BackendUnavailableError, _core.DeviceError) as e:
                 if backend != "auto":
                     raise
@@ -361,6 +376,11 @@ class Deformer:
     def device(self):
         """The Vulkan device dict (see ``vulkan_devices()``), or None on the CPU."""
         return self._vk.device if self._vk is not None else None
+
+    @property
+    def gpu_precision(self):
+        """How the Vulkan device sums: "float64" or "float-float"; None on the CPU."""
+        return self._vk.precision if self._vk is not None else None
 
     def last_timings(self):
         """Vulkan only: times of the last frame in ms (``gpu_total_ms`` from timestamp

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <thread>
 
 #include "vpffd/vpffd.h"
@@ -20,8 +21,28 @@ bool have_device() {
   return false;
 }
 
+bool have_float64() {
+  for (const auto& d : vulkan::devices())
+    if (d.suitable && d.float64) return true;
+  return false;
+}
+
 #define REQUIRE_DEVICE() \
   if (!have_device()) GTEST_SKIP() << "no suitable Vulkan device"
+
+// The frame tests run in both precisions (shaders/real.glsl).
+class VulkanP : public ::testing::TestWithParam<vulkan::Precision> {
+ protected:
+  void SetUp() override {
+    if (!have_device()) GTEST_SKIP() << "no suitable Vulkan device";
+    if (GetParam() == vulkan::Precision::Float64 && !have_float64()) GTEST_SKIP() << "no shaderFloat64";
+  }
+  std::unique_ptr<vulkan::VulkanDeformer> make(const RowMatrixX3d& V, const RowMatrixX3i& F, const Lattice& L) const {
+    auto d = std::make_unique<vulkan::VulkanDeformer>(V, F, L, OutsidePolicy::Error, "", GetParam());
+    EXPECT_EQ(d->precision(), GetParam());
+    return d;
+  }
+};
 
 struct Scene {
   RowMatrixX3d V;
@@ -77,11 +98,11 @@ TEST(Vulkan, DevicesListed) {
   }
 }
 
-TEST(Vulkan, MatchesCpuAllAxisSubsets) {
-  REQUIRE_DEVICE();
+TEST_P(VulkanP, MatchesCpuAllAxisSubsets) {
   Scene s = sphere(3, 3, {5, 6, 5});
   Deformer cpu(s.V, s.F, s.L);
-  vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+  auto gpu_ptr = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer& gpu = *gpu_ptr;
   const RowMatrixX3d P = edit(s.L);
   for (const char* axes : {"x", "y", "z", "xy", "yz", "zx", "xyz", "zyx"}) {
     CorrectionOptions o;
@@ -93,12 +114,12 @@ TEST(Vulkan, MatchesCpuAllAxisSubsets) {
   }
 }
 
-TEST(Vulkan, WeightsFixedConstraintsAndDegrees) {
-  REQUIRE_DEVICE();
+TEST_P(VulkanP, WeightsFixedConstraintsAndDegrees) {
   for (int degree : {1, 2, 4, 5}) {
     Scene s = sphere(2, degree, {degree + 3, degree + 2, degree + 4});
     Deformer cpu(s.V, s.F, s.L);
-    vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+    auto gpu_ptr = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer& gpu = *gpu_ptr;
     const Index N = s.L.n_control_points();
     CorrectionOptions o;
     o.weights = VectorXd::LinSpaced(N, 1.0, 3.0);
@@ -117,11 +138,11 @@ TEST(Vulkan, WeightsFixedConstraintsAndDegrees) {
   }
 }
 
-TEST(Vulkan, RoundsAndManyConstraints) {
-  REQUIRE_DEVICE();
+TEST_P(VulkanP, RoundsAndManyConstraints) {
   Scene s = sphere(3, 3, {6, 6, 6});
   Deformer cpu(s.V, s.F, s.L);
-  vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+  auto gpu_ptr = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer& gpu = *gpu_ptr;
   const RowMatrixX3d P = edit(s.L);
   const RowMatrixX3d X = cpu.ffd(P);
   CorrectionOptions o;
@@ -143,13 +164,13 @@ TEST(Vulkan, RoundsAndManyConstraints) {
   }
 }
 
-TEST(Vulkan, SameErrorsAsCpu) {
-  REQUIRE_DEVICE();
+TEST_P(VulkanP, SameErrorsAsCpu) {
   // A small sphere in a big lattice: the corner control point does not touch it.
   Scene s = sphere(2, 2, {8, 8, 8});
   s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
   Deformer cpu(s.V, s.F, s.L);
-  vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+  auto gpu_ptr = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer& gpu = *gpu_ptr;
   const RowMatrixX3d P = rest_control_points(s.L);
   auto message = [](auto&& f) -> std::string {
     try {
@@ -190,11 +211,10 @@ TEST(Vulkan, SameErrorsAsCpu) {
   EXPECT_THROW(vulkan::VulkanDeformer(s.V, Fbad, s.L), InvalidInputError);
 }
 
-TEST(Vulkan, SecondDeformerAndManyFrames) {
-  REQUIRE_DEVICE();
+TEST_P(VulkanP, SecondDeformerAndManyFrames) {
   Scene s = sphere(2, 3, {5, 5, 5});
-  vulkan::VulkanDeformer a(s.V, s.F, s.L);
-  vulkan::VulkanDeformer b(s.V, s.F, s.L);
+  auto pa = make(s.V, s.F, s.L), pb = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer &a = *pa, &b = *pb;
   const RowMatrixX3d P = edit(s.L);
   const DeformResult ra = a.deform(P, {}), rb = b.deform(P, {});
   EXPECT_EQ((ra.vertices - rb.vertices).cwiseAbs().maxCoeff(), 0.0);  // deterministic
@@ -204,11 +224,11 @@ TEST(Vulkan, SecondDeformerAndManyFrames) {
 
 // A volume correction found impossible on the device, after the frame ran, must not
 // leave that frame's vertices behind.
-TEST(Vulkan, FailedFrameKeepsLastGoodVertices) {
-  REQUIRE_DEVICE();
+TEST_P(VulkanP, FailedFrameKeepsLastGoodVertices) {
   Scene s = sphere(2, 2, {8, 8, 8});
   s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
-  vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+  auto gpu_ptr = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer& gpu = *gpu_ptr;
   const RowMatrixX3d rest = gpu.vertices();
   CorrectionOptions corner_free;  // zero volume coefficients, found by the device's solve
   corner_free.fixed.assign(s.L.n_control_points(), 1);
@@ -224,10 +244,10 @@ TEST(Vulkan, FailedFrameKeepsLastGoodVertices) {
 }
 
 // Frames of several threads on one deformer: each gets its own vertices.
-TEST(Vulkan, ThreadsGetTheirOwnFrames) {
-  REQUIRE_DEVICE();
+TEST_P(VulkanP, ThreadsGetTheirOwnFrames) {
   Scene s = sphere(3, 3, {5, 5, 5});
-  vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+  auto gpu_ptr = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer& gpu = *gpu_ptr;
   const RowMatrixX3d P[2] = {edit(s.L), 1.1 * edit(s.L)};
   CorrectionOptions o[2];
   o[1].preserve_volume = false;
@@ -244,6 +264,23 @@ TEST(Vulkan, ThreadsGetTheirOwnFrames) {
   b.join();
   EXPECT_EQ(bad[0], 0);
   EXPECT_EQ(bad[1], 0);
+}
+
+INSTANTIATE_TEST_SUITE_P(Precisions, VulkanP,
+                         ::testing::Values(vulkan::Precision::Float64, vulkan::Precision::FloatFloat),
+                         [](const auto& info) {
+                           return info.param == vulkan::Precision::Float64 ? std::string("Float64")
+                                                                            : std::string("FloatFloat");
+                         });
+
+TEST(Vulkan, PrecisionChoice) {
+  EXPECT_EQ(vulkan::parse_precision("float-float"), vulkan::Precision::FloatFloat);
+  EXPECT_STREQ(vulkan::precision_name(vulkan::Precision::Float64), "float64");
+  EXPECT_THROW(vulkan::parse_precision("double"), InvalidInputError);
+  REQUIRE_DEVICE();
+  Scene s = sphere(1, 2, {3, 3, 3});
+  vulkan::VulkanDeformer gpu(s.V, s.F, s.L);
+  EXPECT_EQ(gpu.precision(), gpu.device().float64 ? vulkan::Precision::Float64 : vulkan::Precision::FloatFloat);
 }
 
 TEST(Vulkan, BadDeviceNameRaises) {

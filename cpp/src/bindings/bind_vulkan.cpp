@@ -44,19 +44,24 @@ void bind_vulkan(py::module_& m) {
       "([device dicts], why): the Vulkan devices, and why there are none when the list is empty.");
 
   py::class_<VulkanDeformer, std::unique_ptr<VulkanDeformer>>(m, "VulkanDeformer")
-      .def(py::init([](RefV V, RefF F, const Lattice& L, const std::string& outside, const std::string& device) {
+      .def(py::init([](RefV V, RefF F, const Lattice& L, const std::string& outside, const std::string& device,
+                       const std::string& precision) {
              const OutsidePolicy pol = parse_outside_policy(outside);
+             const vulkan::Precision prec = vulkan::parse_precision(precision);
              py::gil_scoped_release release;
-             return std::make_unique<VulkanDeformer>(V, F, L, pol, device);
+             return std::make_unique<VulkanDeformer>(V, F, L, pol, device, prec);
            }),
            py::arg("vertices"), py::arg("faces"), py::arg("lattice"), py::arg("outside") = "error",
-           py::arg("device") = "")
+           py::arg("device") = "", py::arg("precision") = "auto")
       .def_property_readonly(
           "cpu", [](const VulkanDeformer& d) -> const Deformer& { return d.cpu(); },
           py::return_value_policy::reference_internal,
           "The CPU Deformer of the same mesh (rest volume, ffd, jacobians, matrices).")
       .def_property_readonly("device", [](const VulkanDeformer& d) { return device_to_python(d.device()); })
       .def_property_readonly("origin", &VulkanDeformer::origin)
+      .def_property_readonly(
+          "precision", [](const VulkanDeformer& d) { return std::string(vulkan::precision_name(d.precision())); },
+          "How the device sums: 'float64' or 'float-float'.")
       .def("vertices",
            [](const VulkanDeformer& d) {
              py::gil_scoped_release release;

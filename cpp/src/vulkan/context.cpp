@@ -161,7 +161,6 @@ DeviceInfo describe(VkPhysicalDevice p, int index) {
   const VkPhysicalDeviceLimits& L = props.limits;
   if (props.apiVersion < VK_API_VERSION_1_1) d.reason = "Vulkan " + d.api_version + " < 1.1";
   else if (!compute) d.reason = "no compute queue";
-  else if (!d.float64) d.reason = "no shaderFloat64 (the volume sums need float64)";
   else if (L.maxPerStageDescriptorStorageBuffers < kStorageBuffers)
     d.reason = vpffd::detail::concat("maxPerStageDescriptorStorageBuffers ", L.maxPerStageDescriptorStorageBuffers,
                                      " < ", kStorageBuffers);
@@ -293,8 +292,9 @@ std::shared_ptr<Device> open_device(const std::string& selector) {
   qi.queueFamilyIndex = dev->family;
   qi.queueCount = 1;
   qi.pQueuePriorities = &priority;
+  // float64 only where it exists: the float-float shaders need no optional feature.
   VkPhysicalDeviceFeatures feats{};
-  feats.shaderFloat64 = VK_TRUE;
+  feats.shaderFloat64 = dev->info.float64 ? VK_TRUE : VK_FALSE;
   VkDeviceCreateInfo ci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   ci.queueCreateInfoCount = 1;
   ci.pQueueCreateInfos = &qi;
@@ -322,6 +322,20 @@ std::vector<DeviceInfo> devices(std::string* why) {
     if (why) *why = e.what();
   }
   return out;
+}
+
+const char* precision_name(Precision p) {
+  switch (p) {
+    case Precision::Float64: return "float64";
+    case Precision::FloatFloat: return "float-float";
+    default: return "auto";
+  }
+}
+
+Precision parse_precision(const std::string& name) {
+  for (Precision p : {Precision::Auto, Precision::Float64, Precision::FloatFloat})
+    if (name == precision_name(p)) return p;
+  throw InvalidInputError("precision: expected 'auto', 'float64' or 'float-float', got '" + name + "'");
 }
 
 }  // namespace vpffd::vulkan

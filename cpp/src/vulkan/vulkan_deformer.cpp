@@ -8,7 +8,8 @@
 // A frame runs: upload copies -> FFD -> [volume] -> per axis step [coefficients ->
 // combine -> solve (offsets included) -> vertex update] -> volume -> copies of the
 // offsets, the step results and the volume partials to the host. See
-// shaders/common.glsl for the precision and determinism rules.
+// shaders/common.glsl for the precision and determinism rules, shaders/real.glsl for
+// the two kinds of sums (float64, float-float) and their common buffer layout.
 //
 // The frame's command buffer depends only on the options' shape (which steps along
 // which axes, whether volumes are measured): it is recorded once per shape and
@@ -21,6 +22,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numeric>
 
 #include <Eigen/Eigenvalues>
@@ -33,23 +35,42 @@ namespace vpffd::vulkan {
 
 namespace {
 
-const std::uint32_t kSpvFfd[] =
-#include "vpffd/shaders/ffd.spv.inc"
+// Each shader in both builds of shaders/real.glsl.
+const std::uint32_t kSpvFfd64[] =
+#include "vpffd/shaders/ffd.f64.spv.inc"
     ;
-const std::uint32_t kSpvCoef[] =
-#include "vpffd/shaders/coef.spv.inc"
+const std::uint32_t kSpvCoef64[] =
+#include "vpffd/shaders/coef.f64.spv.inc"
     ;
-const std::uint32_t kSpvCombine[] =
-#include "vpffd/shaders/combine.spv.inc"
+const std::uint32_t kSpvCombine64[] =
+#include "vpffd/shaders/combine.f64.spv.inc"
     ;
-const std::uint32_t kSpvSolve[] =
-#include "vpffd/shaders/solve.spv.inc"
+const std::uint32_t kSpvSolve64[] =
+#include "vpffd/shaders/solve.f64.spv.inc"
     ;
-const std::uint32_t kSpvGather[] =
-#include "vpffd/shaders/gather.spv.inc"
+const std::uint32_t kSpvGather64[] =
+#include "vpffd/shaders/gather.f64.spv.inc"
     ;
-const std::uint32_t kSpvVolume[] =
-#include "vpffd/shaders/volume.spv.inc"
+const std::uint32_t kSpvVolume64[] =
+#include "vpffd/shaders/volume.f64.spv.inc"
+    ;
+const std::uint32_t kSpvFfdFF[] =
+#include "vpffd/shaders/ffd.ff.spv.inc"
+    ;
+const std::uint32_t kSpvCoefFF[] =
+#include "vpffd/shaders/coef.ff.spv.inc"
+    ;
+const std::uint32_t kSpvCombineFF[] =
+#include "vpffd/shaders/combine.ff.spv.inc"
+    ;
+const std::uint32_t kSpvSolveFF[] =
+#include "vpffd/shaders/solve.ff.spv.inc"
+    ;
+const std::uint32_t kSpvGatherFF[] =
+#include "vpffd/shaders/gather.ff.spv.inc"
+    ;
+const std::uint32_t kSpvVolumeFF[] =
+#include "vpffd/shaders/volume.ff.spv.inc"
     ;
 
 enum Pipe { kFfd, kCoef, kCombine, kSolve, kGather, kVolume, kPipes };
@@ -58,11 +79,36 @@ struct Spv {
   size_t bytes;
   const char* name;
 };
-const Spv kShaders[kPipes] = {
-    {kSpvFfd, sizeof(kSpvFfd), "ffd"},         {kSpvCoef, sizeof(kSpvCoef), "coef"},
-    {kSpvCombine, sizeof(kSpvCombine), "combine"}, {kSpvSolve, sizeof(kSpvSolve), "solve"},
-    {kSpvGather, sizeof(kSpvGather), "gather"},   {kSpvVolume, sizeof(kSpvVolume), "volume"},
-};
+#define VPFFD_SHADERS(S)                                                                          \
+  {                                                                                               \
+    {kSpvFfd##S, sizeof(kSpvFfd##S), "ffd"}, {kSpvCoef##S, sizeof(kSpvCoef##S), "coef"},          \
+        {kSpvCombine##S, sizeof(kSpvCombine##S), "combine"},                                      \
+        {kSpvSolve##S, sizeof(kSpvSolve##S), "solve"}, {kSpvGather##S, sizeof(kSpvGather##S), "gather"}, \
+        {kSpvVolume##S, sizeof(kSpvVolume##S), "volume"},                                         \
+  }
+const Spv kShaders64[kPipes] = VPFFD_SHADERS(64);
+const Spv kShadersFF[kPipes] = VPFFD_SHADERS(FF);
+#undef VPFFD_SHADERS
+
+// Device reals (shaders/real.glsl): a double, or a float pair (hi, lo) with value
+// hi + lo, in the same 8 bytes.
+void put_reals(void* dst, const double* src, size_t n, bool ff) {
+  if (!ff) {
+    std::memcpy(dst, src, 8 * n);
+    return;
+  }
+  float* f = static_cast<float*>(dst);
+  for (size_t i = 0; i < n; ++i) {
+    const float hi = static_cast<float>(src[i]);
+    f[2 * i] = hi;
+    f[2 * i + 1] = static_cast<float>(src[i] - double(hi));
+  }
+}
+double get_real(const void* src, size_t i, bool ff) {
+  if (!ff) return static_cast<const double*>(src)[i];
+  const float* f = static_cast<const float*>(src);
+  return double(f[2 * i]) + double(f[2 * i + 1]);
+}
 
 // Buffer layouts: mirror shaders/common.glsl.
 constexpr int FR_TARGET = 0, FR_MAX_INVW = 1, FR_HI = 2, FR_RHS = 8;
@@ -109,6 +155,8 @@ struct VulkanDeformer::Impl {
   std::shared_ptr<detail::Device> dev;  // first: destroyed last
   std::unique_ptr<Deformer> cpu;
   VkDevice d = VK_NULL_HANDLE;
+  Precision precision = Precision::Float64;
+  bool ff = false;  // float-float reals on the device
 
   Index nv = 0, nf = 0, N = 0, n_tiles = 0;
   int KKK = 0;
@@ -275,7 +323,7 @@ struct VulkanDeformer::Impl {
   }
 
   // ---- set-up ------------------------------------------------------------------
-  void build(const std::string& selector);
+  void build(const std::string& selector, Precision wanted);
   void create_pipelines(const std::array<std::int32_t, 11>& spec);
 
   // ---- frames (all with frame_mutex held) -----------------------------------------
@@ -352,8 +400,9 @@ void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 11>& 
   VkSpecializationInfo si{11, entries, sizeof(spec), spec.data()};
   for (int p = 0; p < kPipes; ++p) {
     VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-    mi.codeSize = kShaders[p].bytes;
-    mi.pCode = kShaders[p].code;
+    const Spv* shaders = ff ? kShadersFF : kShaders64;
+    mi.codeSize = shaders[p].bytes;
+    mi.pCode = shaders[p].code;
     detail::check(vkCreateShaderModule(d, &mi, nullptr, &modules[p]), "vkCreateShaderModule");
     VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
@@ -364,14 +413,19 @@ void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 11>& 
     ci.layout = layout;
     const VkResult r = vkCreateComputePipelines(d, VK_NULL_HANDLE, 1, &ci, nullptr, &pipes[p]);
     if (r != VK_SUCCESS)
-      throw DeviceError(std::string("vulkan: vkCreateComputePipelines (") + kShaders[p].name +
+      throw DeviceError(std::string("vulkan: vkCreateComputePipelines (") + kShaders64[p].name +
                         ") failed: " + detail::result_string(r));
   }
 }
 
-void VulkanDeformer::Impl::build(const std::string& selector) {
+void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) {
   dev = detail::open_device(selector);
   d = dev->handle;
+  if (wanted == Precision::Float64 && !dev->info.float64)
+    throw BackendUnavailableError("vulkan: device " + dev->info.name +
+                                  " has no shaderFloat64: use precision 'float-float' or 'auto'");
+  precision = wanted == Precision::Auto ? (dev->info.float64 ? Precision::Float64 : Precision::FloatFloat) : wanted;
+  ff = precision == Precision::FloatFloat;
   const Deformer& c = *cpu;
   const Lattice& L = c.lattice();
   const BasisTables& T = c.tables();
@@ -620,13 +674,14 @@ bool VulkanDeformer::Impl::update_constraints(const std::vector<SparseVec>& rows
   for (Index s = 0; s < nc; ++s) ci[CI_BASE + s] = index[s * KKK];
   std::copy(ptr.begin(), ptr.end(), ci + ci[CI_PTR]);
   std::copy(entry.begin(), entry.end(), ci + ci[CI_IDX]);
-  double* cd = static_cast<double*>(up_cons_d.mapped());
-  std::copy(value.begin(), value.end(), cd);
+  std::vector<double> cd(cd_size, 0.0);
+  std::copy(value.begin(), value.end(), cd.begin());
   for (Index p = 0; p < nc; ++p)
     for (Index q = 0; q < nc; ++q) {
       cd[ci[CI_G] + p * nc + q] = C(p, q);
       cd[ci[CI_H] + p * nc + q] = H(p, q);
     }
+  put_reals(up_cons_d.mapped(), cd.data(), cd_size, ff);
   copy(up_cons_i, buf[bConsI], 4 * ci_size);
   copy(up_cons_d, buf[bConsD], 8 * cd_size);
 
@@ -725,18 +780,20 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
 // ---- public API ----------------------------------------------------------------
 
 VulkanDeformer::VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
-                               Lattice L, OutsidePolicy policy, const std::string& device)
+                               Lattice L, OutsidePolicy policy, const std::string& device,
+                               Precision precision)
     : impl_(std::make_unique<Impl>()) {
   // The CPU Deformer validates the input exactly as the CPU backend does and keeps
   // the exact (float64) rest volume, the edge report and the embedding.
   impl_->cpu = std::make_unique<Deformer>(V, F, std::move(L), policy);
-  impl_->build(device);
+  impl_->build(device, precision);
 }
 
 VulkanDeformer::~VulkanDeformer() = default;
 
 const Deformer& VulkanDeformer::cpu() const { return *impl_->cpu; }
 const DeviceInfo& VulkanDeformer::device() const { return impl_->dev->info; }
+Precision VulkanDeformer::precision() const { return impl_->precision; }
 FrameTimings VulkanDeformer::last_timings() const {
   std::lock_guard<std::mutex> lock(impl_->frame_mutex);
   return impl_->timings;
@@ -814,7 +871,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   }
   const bool new_invw = m.invw_uploaded.size() != N || m.invw_uploaded != inv_weight;
   if (new_invw && shape.mode == Shape::DeviceSteps) {
-    std::memcpy(m.up_invw.mapped(), inv_weight.data(), 8 * N);
+    put_reals(m.up_invw.mapped(), inv_weight.data(), N, m.ff);
     m.copy(m.up_invw, m.buf[Impl::bInvW], 8 * N);
     aux = true;
   }
@@ -825,20 +882,21 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   }
   m.reserve(Impl::bFrame, &m.up_frame, 8 * (FR_RHS + 3 * nc), "frame parameters");
   {
-    double* fr = static_cast<double*>(m.up_frame.mapped());
-    std::fill(fr, fr + FR_RHS, 0.0);
+    std::vector<double> fr(FR_RHS + 3 * nc, 0.0);
     fr[FR_TARGET] = target;  // volumes on the device are relative to the origin, like the CPU's
     fr[FR_MAX_INVW] = inv_weight.maxCoeff();
     fr[FR_HI] = m.cons.hi;
     for (int a = 0; a < 3; ++a) {
       const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, P.col(a));
-      std::copy(rhs.begin(), rhs.end(), fr + FR_RHS + a * nc);
+      std::copy(rhs.begin(), rhs.end(), fr.begin() + FR_RHS + a * nc);
     }
+    put_reals(m.up_frame.mapped(), fr.data(), fr.size(), m.ff);
   }
   if (shape.mode == Shape::HostOffsets) {
-    double* dl = static_cast<double*>(m.up_delta.mapped());
+    std::vector<double> dl(3 * N);
     for (int a = 0; a < 3; ++a)
       for (Index c = 0; c < N; ++c) dl[a * N + c] = res.offsets(c, a);
+    put_reals(m.up_delta.mapped(), dl.data(), dl.size(), m.ff);
   }
 
   // --- submit: [uploads,] the recorded frame ---------------------------------------------
@@ -864,12 +922,14 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   }
 
   // --- results -------------------------------------------------------------------------
-  const double* st = static_cast<const double*>(m.rb_stats.mapped());
+  // Step results: volume_before, share, sum_squares, max_offset, status, detail.
+  auto stat = [&](int step, int i) {
+    return get_real(m.rb_stats.mapped(), ST_STEP + step * ST_STEP_STRIDE + i, m.ff);
+  };
   if (shape.mode == Shape::DeviceSteps) {
     for (int step = 0; step < k; ++step) {
-      const double* q = st + ST_STEP + step * ST_STEP_STRIDE;
       const char ax = axis_name[shape.axes[step]];
-      const int status = static_cast<int>(q[4]);
+      const int status = static_cast<int>(stat(step, 4));
       if (status == 0) continue;
       // The frame ran but has no correction: its vertices must not outlive it.
       m.timings = tm;
@@ -881,41 +941,40 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
                                                 "(the mesh is flat along this axis, or every control point that "
                                                 "influences it is fixed)"));
       if (status == 3) {
+        const double cond = stat(step, 5);  // < 0: infinite
         // The volume row depends on the constraints: the CPU backend gives its exact
         // message (its condition number); should its test pass, ours still stands.
         lock.unlock();
         cpu.deform(P, opt);
         throw SolverError(vpffd::detail::concat(
             "correction along ", ax, ": the volume and point constraints are linearly dependent (condition number ",
-            q[5], "); two constraints on the same point, or a constraint the volume row already fixes?"));
+            cond < 0 ? std::numeric_limits<double>::infinity() : cond,
+            "); two constraints on the same point, or a constraint the volume row already fixes?"));
       }
       throw DeviceError(vpffd::detail::concat("vulkan: the solve of step ", step, " reported status ", status));
     }
   }
   res.target_volume = opt.preserve_volume ? target : std::numeric_limits<double>::quiet_NaN();
   if (shape.mode == Shape::DeviceSteps) {
-    const double* dl = static_cast<const double*>(m.rb_delta.mapped());
     for (int a = 0; a < 3; ++a)
-      for (Index c = 0; c < N; ++c) res.offsets(c, a) = dl[a * N + c];
+      for (Index c = 0; c < N; ++c) res.offsets(c, a) = get_real(m.rb_delta.mapped(), a * N + c, m.ff);
     for (int step = 0; step < k; ++step) {
-      const double* q = st + ST_STEP + step * ST_STEP_STRIDE;
       AxisStep info;
       info.axis = shape.axes[step];
-      info.volume_before = q[0];
-      info.share = q[1];
-      info.sum_squares = q[2] * wmax;  // in the caller's weights
-      info.max_offset = q[3];
+      info.volume_before = stat(step, 0);
+      info.share = stat(step, 1);
+      info.sum_squares = stat(step, 2) * wmax;  // in the caller's weights
+      info.max_offset = stat(step, 3);
       res.steps.push_back(info);
     }
   }
   res.control_points = P + res.offsets;
   if (measure) {
     // The volume passes' per-workgroup partials, added in a fixed order.
-    const double* red = static_cast<const double*>(m.rb_red.mapped());
     double before = 0, after = 0;
-    for (std::uint32_t g = 0; g < m.g_face; ++g) before += red[g];
-    for (std::uint32_t g = 0; g < m.g_face; ++g) after += red[kMaxGroups + g];
-    if (shape.mode == Shape::DeviceSteps && k > 0) before = st[ST_STEP];
+    for (std::uint32_t g = 0; g < m.g_face; ++g) before += get_real(m.rb_red.mapped(), g, m.ff);
+    for (std::uint32_t g = 0; g < m.g_face; ++g) after += get_real(m.rb_red.mapped(), kMaxGroups + g, m.ff);
+    if (shape.mode == Shape::DeviceSteps && k > 0) before = stat(0, 0);
     if (shape.mode == Shape::Plain) after = before;
     res.volume_before = before;
     res.volume = after;

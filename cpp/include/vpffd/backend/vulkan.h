@@ -18,13 +18,19 @@
 ///
 /// Precision: positions, control points and basis values are float32 on the device
 /// (positions relative to origin()); weights, coefficients, volumes and offsets are
-/// float64. The tests (tests/cpp/test_vulkan.cpp, tests/python/test_vulkan.py) require
+/// summed in float64, or, with Precision::FloatFloat (automatic on devices without
+/// shaderFloat64), in float-float pairs of about 48 significant bits made of float32
+/// arithmetic alone (shaders/real.glsl); its range is float32's. The tests (tests/cpp/test_vulkan.cpp, tests/python/test_vulkan.py) require
 /// vertices within 1e-6 of the lattice box diagonal of the CPU backend's and a
 /// corrected volume within 2e-8 relative of the CPU's and of the target (the final
 /// volume is summed in float64 from float32 positions); on lavapipe the largest seen
 /// are 2.8e-7 and 4.2e-9 (meshes of a few hundred vertices; 2e-11 on the dragon).
 /// An uncorrected volume carries the positions' rounding (tests: 1e-6, seen 7.5e-8).
-/// Devices without shaderFloat64 are reported as unsuitable.
+/// The same tolerances hold for both precisions: the float32 positions dominate. On
+/// lavapipe, over degrees 1-5, axis subsets, weights, constraints and rounds, the
+/// largest seen are 7.0e-9 (volume) and 4.1e-7 (vertices) in both; the dragon's
+/// corrected volume is within 3e-11 (float64) and 9e-12 (float-float) of the
+/// target, where plain float32 sums would leave 4.4e-7.
 ///
 /// Threads: deform(), vertices() and last_timings() may be called from several
 /// threads on one deformer; frames run one at a time, and each deform() returns its
@@ -60,7 +66,7 @@ struct DeviceInfo {
   std::uint64_t memory_bytes = 0; ///< largest device-local heap, bytes
   std::string api_version;        ///< "1.3.239"
   std::string driver;             ///< driver name and info when the driver reports them
-  bool float64 = false;           ///< shaderFloat64
+  bool float64 = false;           ///< shaderFloat64 (without it the sums are float-float)
   bool suitable = false;          ///< usable by vpffd
   std::string reason;             ///< why not, when !suitable
   bool software() const { return type == "cpu"; }
@@ -69,6 +75,17 @@ struct DeviceInfo {
 /// Devices of the Vulkan loader; empty when there is no loader or no driver
 /// (then `why`, when given, says which).
 std::vector<DeviceInfo> devices(std::string* why = nullptr);
+
+/// How the device sums (see the file comment).
+enum class Precision {
+  Auto,        ///< Float64 when the device has shaderFloat64, else FloatFloat
+  Float64,     ///< needs shaderFloat64
+  FloatFloat,  ///< float32 pairs: any device; faster where float64 runs at a small fraction of float32
+};
+/// "auto", "float64", "float-float".
+const char* precision_name(Precision p);
+/// The inverse of precision_name. @throws InvalidInputError naming the accepted values.
+Precision parse_precision(const std::string& name);
 
 /// GPU and host times of the last frame, milliseconds.
 struct FrameTimings {
@@ -91,11 +108,14 @@ class VulkanDeformer {
   /// @param[in] F       #F x 3 triangles
   /// @param[in] device  "" (the first suitable device: hardware before software),
   ///                    a device index ("0"), or a case-insensitive part of its name
+  /// @param[in] precision  how the device sums; Float64 on a device without
+  ///                    shaderFloat64 raises BackendUnavailableError
   /// @throws InvalidInputError for bad input (as the CPU Deformer),
   ///         BackendUnavailableError when no Vulkan or no suitable device is found,
   ///         DeviceError when a Vulkan call fails (the message names the call)
   VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F, Lattice L,
-                 OutsidePolicy policy = OutsidePolicy::Error, const std::string& device = "");
+                 OutsidePolicy policy = OutsidePolicy::Error, const std::string& device = "",
+                 Precision precision = Precision::Auto);
   ~VulkanDeformer();
   VulkanDeformer(const VulkanDeformer&) = delete;
   VulkanDeformer& operator=(const VulkanDeformer&) = delete;
@@ -116,6 +136,8 @@ class VulkanDeformer {
   /// The CPU Deformer of the same mesh: rest volume, edges, embedding, jacobians...
   const Deformer& cpu() const;
   const DeviceInfo& device() const;
+  /// The precision the device sums in: Float64 or FloatFloat (never Auto).
+  Precision precision() const;
   /// Timings of the last frame that ran on the device (a copy: another thread's
   /// frame may replace them at any time).
   FrameTimings last_timings() const;

@@ -14,8 +14,8 @@
 #include "common.glsl"
 layout(local_size_x = 64) in;
 
-shared double s_w[64];
-shared double s_vol[64];
+shared real s_w[64];
+shared real s_vol[64];
 shared float s_bu[64 * KMAX];
 shared float s_bv[64 * KMAX];
 shared float s_bw[64 * KMAX];
@@ -25,19 +25,19 @@ void main() {
   const uint l = gl_LocalInvocationID.x;
   for (uint t = gl_WorkGroupID.x; t < uint(NTILE); t += gl_NumWorkGroups.x) {
     const ivec4 tile = tiles[t];
-    double w = 0.0, vol = 0.0;
+    real w = r_zero(), vol = r_zero();
     if (int(l) < tile.y) {
       const uint v = uint(tile.x) + l;
       if ((pc.flags & 4) == 0) {
-        for (int p = adj_ptr[v]; p < adj_ptr[v + 1]; ++p) w += face_normal(adj_face[p], a);
+        for (int p = adj_ptr[v]; p < adj_ptr[v + 1]; ++p) w = r_add(w, face_normal(adj_face[p], a));
       } else {
         for (int p = adj_ptr[v]; p < adj_ptr[v + 1]; ++p) {
           const int f = adj_face[p];
-          w += cone_weight(f, F[3 * f] == int(v) ? 0 : F[3 * f + 1] == int(v) ? 1 : 2, a);
+          w = r_add(w, cone_weight(f, F[3 * f] == int(v) ? 0 : F[3 * f + 1] == int(v) ? 1 : 2, a));
         }
       }
-      w *= 1.0 / 6.0;
-      vol = double(X[3 * v + a]) * w;
+      w = r_div(w, r_f(6.0));
+      vol = r_mulf(w, X[3 * v + a]);
       float bu[KMAX], bv[KMAX], bw[KMAX];
       vertex_basis(v, bu, bv, bw);
       for (int r = 0; r < KMAX; ++r) {
@@ -51,13 +51,13 @@ void main() {
     barrier();
     for (int o = int(l); o < KKK; o += 64) {
       const int i = o / (KV * KW), j = (o / KW) % KV, k = o % KW;
-      double s = 0.0;
+      real s = r_zero();
       for (int q = 0; q < tile.y; ++q)
-        s += s_w[q] * (double(s_bu[q * KMAX + i]) * double(s_bv[q * KMAX + j]) * double(s_bw[q * KMAX + k]));
+        s = r_add(s, r_mulb(s_w[q], b3(s_bu[q * KMAX + i], s_bv[q * KMAX + j], s_bw[q * KMAX + k])));
       partial[t * KKK + o] = s;
     }
     for (uint h = 32; h > 0; h >>= 1) {
-      if (l < h) s_vol[l] += s_vol[l + h];
+      if (l < h) s_vol[l] = r_add(s_vol[l], s_vol[l + h]);
       barrier();
     }
     if (l == 0) tile_vol[t] = s_vol[0];

@@ -6,8 +6,8 @@ layout(local_size_x = 256) in;
 void main() {
   const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
   for (uint c = gl_GlobalInvocationID.x; c < uint(NCP); c += stride) {
-    double s = 0.0;
-    for (int p = comb_ptr[c]; p < comb_ptr[c + 1]; ++p) s += partial[comb_idx[p]];
+    real s = r_zero();
+    for (int p = comb_ptr[c]; p < comb_ptr[c + 1]; ++p) s = r_add(s, partial[comb_idx[p]]);
     alpha[c] = s;
   }
 }

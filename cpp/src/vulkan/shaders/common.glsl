@@ -4,15 +4,16 @@
 // positions are stored relative to the lattice centre, so their rounding is
 // relative to the mesh size, not to its distance from the world origin).
 // Everything that is summed over many vertices or faces (face normal components,
-// vertex weights, coefficients, volumes, offsets) is float64: a float32 sum over
-// ~1e6 faces would lose the 1e-6 relative volume target. The devices we accept
-// must therefore support shaderFloat64 (lavapipe and NVIDIA/AMD GPUs do).
+// vertex weights, coefficients, volumes, offsets) is `real` (real.glsl): float64
+// where the device has shaderFloat64, else float-float pairs. A float32 sum over
+// ~1e6 faces would lose the 1e-6 relative volume target.
 //
 // All reductions have a fixed shape (fixed dispatch sizes, fixed loop orders,
 // tree reductions in shared memory), so a frame gives bit-identical results on
 // every run: no floating-point atomics anywhere.
 
 #extension GL_GOOGLE_include_directive : require
+#include "real.glsl"
 
 #define KMAX 6  // order (degree + 1) of a degree-5 spline
 
@@ -51,23 +52,23 @@ layout(std430, set = 0, binding = 5) readonly buffer BufSpan { int span[]; };   
 layout(std430, set = 0, binding = 6) readonly buffer BufTau { float tau[]; };   // 3V
 layout(std430, set = 0, binding = 7) readonly buffer BufPoly { float poly[]; };
 layout(std430, set = 0, binding = 8) readonly buffer BufTile { ivec4 tiles[]; };  // start, count, first cp, -
-layout(std430, set = 0, binding = 9) buffer BufPart { double partial[]; };       // NTILE x KKK
-layout(std430, set = 0, binding = 10) buffer BufTileVol { double tile_vol[]; };  // NTILE
+layout(std430, set = 0, binding = 9) buffer BufPart { real partial[]; };       // NTILE x KKK
+layout(std430, set = 0, binding = 10) buffer BufTileVol { real tile_vol[]; };  // NTILE
 layout(std430, set = 0, binding = 11) readonly buffer BufCombPtr { int comb_ptr[]; };
 layout(std430, set = 0, binding = 12) readonly buffer BufComb { int comb_idx[]; };
-layout(std430, set = 0, binding = 13) buffer BufAlpha { double alpha[]; };       // N
-layout(std430, set = 0, binding = 14) readonly buffer BufInvW { double inv_w[]; };  // N, 0 = fixed
-layout(std430, set = 0, binding = 15) buffer BufDelta { double delta[]; };  // 4N: 3 accumulated axes, this step's
-// Frame parameters (see vulkan_deformer.cpp, the FR_/CI_/ST_ constants): doubles.
-layout(std430, set = 0, binding = 16) readonly buffer BufFrame { double frame[]; };
+layout(std430, set = 0, binding = 13) buffer BufAlpha { real alpha[]; };       // N
+layout(std430, set = 0, binding = 14) readonly buffer BufInvW { real inv_w[]; };  // N, 0 = fixed
+layout(std430, set = 0, binding = 15) buffer BufDelta { real delta[]; };  // 4N: 3 accumulated axes, this step's
+// Frame parameters (see vulkan_deformer.cpp, the FR_/CI_/ST_ constants): reals.
+layout(std430, set = 0, binding = 16) readonly buffer BufFrame { real frame[]; };
 // The point constraints' block: uploaded when the constraint sources or the
 // weights change, not per frame.
 layout(std430, set = 0, binding = 17) readonly buffer BufConsI { int cons_i[]; };
-layout(std430, set = 0, binding = 18) buffer BufStats { double stats[]; };
-layout(std430, set = 0, binding = 19) buffer BufRed { double red[]; };  // per-workgroup volume partials
-layout(std430, set = 0, binding = 20) readonly buffer BufConsD { double cons_d[]; };
+layout(std430, set = 0, binding = 18) buffer BufStats { real stats[]; };
+layout(std430, set = 0, binding = 19) buffer BufRed { real red[]; };  // per-workgroup volume partials
+layout(std430, set = 0, binding = 20) readonly buffer BufConsD { real cons_d[]; };
 // Scratch vectors of the solve workgroup; coherent: its invocations exchange them.
-layout(std430, set = 0, binding = 21) coherent buffer BufWork { double work[]; };
+layout(std430, set = 0, binding = 21) coherent buffer BufWork { real work[]; };
 
 // Layouts, mirrored in vulkan_deformer.cpp.
 const int RED_STRIDE = 1024;       // = the most workgroups of a grid-stride pass
@@ -105,21 +106,22 @@ int vertex_basis(uint v, out float bu[KMAX], out float bv[KMAX], out float bw[KM
   return (i0 * NV + j0) * NW + k0;
 }
 
-// Component `a` of face f's unnormalised normal (p1 - p0) x (p2 - p0), in double.
-double face_normal(int f, int a) {
+// Component `a` of face f's unnormalised normal (p1 - p0) x (p2 - p0): the edge
+// vectors are exact (differences of two floats), the rest rounds once per operation.
+real face_normal(int f, int a) {
   const int a1 = (a + 1) % 3, a2 = (a + 2) % 3;
   const int v0 = F[3 * f], v1 = F[3 * f + 1], v2 = F[3 * f + 2];
-  const double p0a = X[3 * v0 + a1], p0b = X[3 * v0 + a2];
-  const double e1a = double(X[3 * v1 + a1]) - p0a, e1b = double(X[3 * v1 + a2]) - p0b;
-  const double e2a = double(X[3 * v2 + a1]) - p0a, e2b = double(X[3 * v2 + a2]) - p0b;
-  return e1a * e2b - e1b * e2a;
+  const real p0a = r_f(X[3 * v0 + a1]), p0b = r_f(X[3 * v0 + a2]);
+  const real e1a = r_sub(r_f(X[3 * v1 + a1]), p0a), e1b = r_sub(r_f(X[3 * v1 + a2]), p0b);
+  const real e2a = r_sub(r_f(X[3 * v2 + a1]), p0a), e2b = r_sub(r_f(X[3 * v2 + a2]), p0b);
+  return r_sub(r_mul(e1a, e2b), r_mul(e1b, e2a));
 }
 
 // Face f's contribution to the weight of its corner c for an open mesh: the exact
 // gradient of the cone volume from the origin, ((x_m - o) x (x_n - o))_a with m, n
 // the next corners (positions are already relative to the origin).
-double cone_weight(int f, int c, int a) {
+real cone_weight(int f, int c, int a) {
   const int a1 = (a + 1) % 3, a2 = (a + 2) % 3;
   const int m = F[3 * f + (c + 1) % 3], n = F[3 * f + (c + 2) % 3];
-  return double(X[3 * m + a1]) * double(X[3 * n + a2]) - double(X[3 * m + a2]) * double(X[3 * n + a1]);
+  return r_sub(r_prod(X[3 * m + a1], X[3 * n + a2]), r_prod(X[3 * m + a2], X[3 * n + a1]));
 }

@@ -2,8 +2,8 @@
 // X[v][axis] += sum_c B_c(u_v) delta_c, with delta the row pc.slot of `delta` (this
 // step's offsets, or an axis's total when the host solved the frame): after a
 // correction along one axis only that coordinate moves. The basis products are
-// formed in double exactly as in `coef`, so the volume change is alpha . delta up
-// to the float32 rounding of X.
+// formed exactly as in `coef` (b3), so the volume change is alpha . delta up to
+// the float32 rounding of X.
 #include "common.glsl"
 layout(local_size_x = 256) in;
 
@@ -14,14 +14,13 @@ void main() {
   for (uint v = gl_GlobalInvocationID.x; v < uint(NVERT); v += stride) {
     float bu[KMAX], bv[KMAX], bw[KMAX];
     const int base = vertex_basis(v, bu, bv, bw);
-    double s = 0.0;
+    real s = r_zero();
     for (int i = 0; i < KU; ++i) {
       for (int j = 0; j < KV; ++j) {
         const int row = src + base + (i * NV + j) * NW;
-        const double bij = double(bu[i]) * double(bv[j]);
-        for (int k = 0; k < KW; ++k) s += bij * double(bw[k]) * delta[row + k];
+        for (int k = 0; k < KW; ++k) s = r_add(s, r_mulb(delta[row + k], b3(bu[i], bv[j], bw[k])));
       }
     }
-    X[3 * v + a] = float(double(X[3 * v + a]) + s);
+    X[3 * v + a] = r_to_float(r_add(r_f(X[3 * v + a]), s));
   }
 }

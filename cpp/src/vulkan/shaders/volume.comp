@@ -1,28 +1,32 @@
 #version 450
 // Enclosed volume, per workgroup: sum_f p0 . (p1 x p2) with positions relative to
-// the lattice centre (the CPU's signed_volume), in double, into region pc.slot of
+// the lattice centre (the CPU's signed_volume), in reals, into region pc.slot of
 // `red`. The host adds the (at most RED_STRIDE) partials in a fixed order: a
 // one-workgroup reduce pass would cost a dispatch and a barrier for 1024 additions.
 #include "common.glsl"
 layout(local_size_x = 256) in;
-shared double s_sum[256];
+shared real s_sum[256];
 
 void main() {
   const uint l = gl_LocalInvocationID.x;
   const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-  double s = 0.0;
+  real s = r_zero();
   for (uint f = gl_GlobalInvocationID.x; f < uint(NFACE); f += stride) {
     const int v0 = F[3 * f], v1 = F[3 * f + 1], v2 = F[3 * f + 2];
-    const dvec3 a = dvec3(X[3 * v0], X[3 * v0 + 1], X[3 * v0 + 2]);
-    const dvec3 b = dvec3(X[3 * v1], X[3 * v1 + 1], X[3 * v1 + 2]);
-    const dvec3 c = dvec3(X[3 * v2], X[3 * v2 + 1], X[3 * v2 + 2]);
-    s += dot(a, cross(b, c));
+    const vec3 a = vec3(X[3 * v0], X[3 * v0 + 1], X[3 * v0 + 2]);
+    const vec3 b = vec3(X[3 * v1], X[3 * v1 + 1], X[3 * v1 + 2]);
+    const vec3 c = vec3(X[3 * v2], X[3 * v2 + 1], X[3 * v2 + 2]);
+    // a . (b x c): the products of two floats are exact, the rest rounds per operation.
+    const real cx = r_sub(r_prod(b.y, c.z), r_prod(b.z, c.y));
+    const real cy = r_sub(r_prod(b.z, c.x), r_prod(b.x, c.z));
+    const real cz = r_sub(r_prod(b.x, c.y), r_prod(b.y, c.x));
+    s = r_add(s, r_add(r_add(r_mulf(cx, a.x), r_mulf(cy, a.y)), r_mulf(cz, a.z)));
   }
   s_sum[l] = s;
   barrier();
   for (uint h = 128; h > 0; h >>= 1) {
-    if (l < h) s_sum[l] += s_sum[l + h];
+    if (l < h) s_sum[l] = r_add(s_sum[l], s_sum[l + h]);
     barrier();
   }
-  if (l == 0) red[pc.slot * RED_STRIDE + int(gl_WorkGroupID.x)] = s_sum[0] / 6.0;
+  if (l == 0) red[pc.slot * RED_STRIDE + int(gl_WorkGroupID.x)] = r_div(s_sum[0], r_f(6.0));
 }
