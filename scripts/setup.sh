@@ -13,6 +13,7 @@ APT_PACKAGES=(
   libopenmesh-dev
   libembree-dev
   libvulkan-dev glslc libvulkan-volk-dev mesa-vulkan-drivers
+  vulkan-validationlayers  # the tests run frames under the validation layer
 )
 missing=()
 for p in "${APT_PACKAGES[@]}"; do

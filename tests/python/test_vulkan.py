@@ -442,3 +442,47 @@ def test_precision_choice(monkeypatch):
         vpffd._core.VulkanDeformer(mesh.vertices, mesh.faces, lat._spec, "error", SEL, "half")
     # The CPU is always float64 and reports no GPU precision.
     assert vpffd.Deformer(mesh, lat, backend="serial", gpu_precision="float-float").gpu_precision is None
+
+
+VALIDATION_LAYER = Path("/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json")
+
+
+@pytest.mark.skipif(not VALIDATION_LAYER.exists(), reason="Khronos validation layer not installed")
+def test_validation_layer_reports_nothing(tmp_path):
+    # Lavapipe forgives missing barriers and misused handles that a real GPU would
+    # not: run frames of every kind (device steps, host offsets, plain, open mesh,
+    # constraints, failures, both precisions) under the validation layer with
+    # synchronization validation, which must report nothing.
+    code = """
+import numpy as np, vpffd
+m = vpffd.shapes.icosphere(2)
+lat = vpffd.Lattice.around(m, shape=(5, 6, 5), degree=3)
+P = lat.rest_points * [1.1, 0.9, 1.0]
+keep = m.vertices[m.faces].mean(axis=1)[:, 2] < 0.7
+for prec in ("float64", "float-float"):
+    d = vpffd.Deformer(m, lat, backend="vulkan", device=%r, gpu_precision=prec)
+    cons = [(7, m.vertices[7] + 0.02)]
+    for kw in (dict(), dict(axes="zx", rounds=2), dict(constraints=cons, weights=np.linspace(1, 2, 150)),
+               dict(constraints=cons, preserve_volume=False), dict(preserve_volume=False)):
+        d.deform(P, **kw)
+    fixed = np.ones(lat.shape, bool); fixed[0, 0, 0] = False
+    try:
+        d.deform(P, fixed=fixed)
+    except vpffd.SolverError:
+        pass
+    d._vk.vertices()
+    o = vpffd.Deformer(vpffd.Mesh(m.vertices, m.faces[keep]), lat, backend="vulkan", device=%r, gpu_precision=prec)
+    o.deform(P, allow_open=True)
+print("done")
+""" % (SEL, SEL)
+    env = dict(os.environ, VK_INSTANCE_LAYERS="VK_LAYER_KHRONOS_validation",
+               VK_LAYER_ENABLES="VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT",
+               VK_LOADER_DEBUG="layer", PYTHONWARNINGS="ignore")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    log = out.stdout + out.stderr
+    # The layer really ran (else this test would prove nothing) ...
+    assert 'Insert instance layer "VK_LAYER_KHRONOS_validation"' in log
+    # ... and said nothing.
+    problems = [ln for ln in log.splitlines() if "Validation" in ln or "VUID-" in ln or "SYNC-" in ln]
+    assert "done" in out.stdout and not problems, problems[:5]
