@@ -158,16 +158,24 @@ def _cmd_demo(args) -> int:
     return 0
 
 
-def _cmd_deform(args) -> int:
-    if args.squash is not None and args.squash <= 0:
-        raise _UsageError(f"--squash: expected a positive factor, got {args.squash}")
-    if args.taper is not None and args.taper < 0:
-        raise _UsageError(f"--taper: expected a factor >= 0, got {args.taper}")
+def _check_lattice(args) -> None:
     if args.degree < 1 or args.degree > 5:
         raise _UsageError(f"--degree: expected 1..5, got {args.degree}")
     if min(args.lattice) < args.degree + 1:
         raise _UsageError(f"--lattice {'x'.join(map(str, args.lattice))} is too small for degree {args.degree} "
                           f"(need at least {args.degree + 1} per axis)")
+
+
+def _cmd_deform(args) -> int:
+    if args.squash is not None and args.squash <= 0:
+        raise _UsageError(f"--squash: expected a positive factor, got {args.squash}")
+    if args.taper is not None and args.taper < 0:
+        raise _UsageError(f"--taper: expected a factor >= 0, got {args.taper}")
+    _check_lattice(args)
+    if args.padding < 0:
+        raise _UsageError(f"--padding: expected a margin >= 0, got {args.padding}")
+    if args.bend is not None and args.toward == args.axis:
+        raise _UsageError(f"--bend: --toward {args.toward} must differ from --axis {args.axis} (the axis that bends)")
     ext = _extension(args.output)
     formats = _formats()
     if formats and ext not in formats:
@@ -175,9 +183,10 @@ def _cmd_deform(args) -> int:
                           f"expected one of {', '.join('.' + f for f in formats)}")
     if args.render and not args.render.lower().endswith(".png"):
         raise _UsageError(f"--render: expected a .png file name, got {args.render!r}")
-    out_dir = os.path.dirname(os.path.abspath(args.output))
-    if not os.path.isdir(out_dir):
-        raise FileNotFoundError(2, "output folder does not exist", out_dir)
+    for path in (args.output, args.render):
+        out_dir = os.path.dirname(os.path.abspath(path)) if path else None
+        if out_dir and not os.path.isdir(out_dir):
+            raise FileNotFoundError(2, "output folder does not exist", out_dir)
 
     # stages: read, embed, deform, write (the bar shows only past one second)
     bar = Progress("deform", 4)
@@ -269,6 +278,7 @@ def _cmd_bench(args) -> int:
         from .benchmark import run_benchmark
     except ImportError as e:
         raise RuntimeError(f"the benchmark is not part of this build ({e})") from None
+    _check_lattice(args)
     bar = Progress("bench", 1)
     try:
         run_benchmark(include_shared=not args.no_shared, repeats=args.repeats, with_csr=not args.no_csr,

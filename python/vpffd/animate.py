@@ -85,8 +85,14 @@ class Animator:
             raise InvalidInputError(f"frames: expected a positive integer, got {frames!r}")
         return np.linspace(0.0, self.duration, int(frames)) if frames > 1 else np.zeros(1)
 
+    def _t(self, t) -> float:
+        t = float(t)
+        if not np.isfinite(t):
+            raise InvalidInputError(f"{type(self).__name__}: time must be a finite number of seconds, got {t}")
+        return t
+
     def _s(self, t) -> float:
-        return float(t) / self.duration
+        return self._t(t) / self.duration
 
     def __call__(self, t) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -193,6 +199,10 @@ class BouncingBall(Animator):
 
     def __init__(self, lattice, bottom=None, drop: float = 0.5, squash: float = 0.7, stretch: float = 0.15,
                  gravity: float = 4.905, bounces: int = 1):
+        if not isinstance(lattice, Lattice):
+            raise TypeError(f"BouncingBall: expected a vpffd.Lattice, got {type(lattice).__name__}")
+        if isinstance(bounces, bool) or not isinstance(bounces, (int, np.integer)) or bounces < 1:
+            raise InvalidInputError(f"BouncingBall: bounces must be a positive integer, got {bounces!r}")
         rest = np.asarray(lattice.rest_points)
         for nm, v in (("drop", drop), ("squash", squash), ("gravity", gravity)):
             if not (np.isfinite(v) and v > 0):
@@ -201,8 +211,9 @@ class BouncingBall(Animator):
             raise InvalidInputError(f"BouncingBall: stretch must be >= 0, got {stretch}")
         self.bottom = float(lattice.box_min[2] if bottom is None else bottom)
         self.height = float(lattice.box_max[2] - self.bottom)
-        if not self.height > 0:
-            raise InvalidInputError("BouncingBall: bottom must lie below the top of the lattice")
+        if not (np.isfinite(self.height) and self.height > 0):
+            raise InvalidInputError(f"BouncingBall: bottom must be a finite height below the top of the lattice, "
+                                    f"got {bottom}")
         self.drop, self.squash, self.stretch, self.gravity = float(drop), float(squash), float(stretch), float(gravity)
         H = self.height
         self.v0 = np.sqrt(2.0 * self.gravity * self.drop) * H          # impact speed, mesh units / s
@@ -219,7 +230,7 @@ class BouncingBall(Animator):
         """(lift, speed, depth) at time t: height of the ball's bottom above the
         ground (mesh units, >= 0 in flight), its speed, and the penetration
         depth (>= 0 in contact)."""
-        tau = float(t) % self.period
+        tau = self._t(t) % self.period
         H = self.height
         if tau < self.t_fall:                                   # falling
             lift = self.drop * H - 0.5 * self.gravity * H * tau ** 2
@@ -330,22 +341,26 @@ class Jelly(Animator):
         traj = np.empty((n_steps + 1,) + X.shape)
         traj[0] = X
         free = ~self.pinned
-        for s in range(n_steps):
-            d = X[j] - X[i]
-            L = np.linalg.norm(d, axis=1)
-            f = (kk * (L - self.rest_lengths) / np.maximum(L, 1e-300))[:, None] * d
-            F = np.zeros_like(X)
-            np.add.at(F, i, f)
-            np.add.at(F, j, -f)
-            V[free] += self.dt * (F[free] - self.c * V[free])
-            X[free] += self.dt * V[free]
-            traj[s + 1] = X
+        with np.errstate(over="ignore", invalid="ignore"):  # an unstable run is reported below
+            for s in range(n_steps):
+                d = X[j] - X[i]
+                L = np.linalg.norm(d, axis=1)
+                f = (kk * (L - self.rest_lengths) / np.maximum(L, 1e-300))[:, None] * d
+                F = np.zeros_like(X)
+                np.add.at(F, i, f)
+                np.add.at(F, j, -f)
+                V[free] += self.dt * (F[free] - self.c * V[free])
+                X[free] += self.dt * V[free]
+                traj[s + 1] = X
+        if not np.isfinite(traj).all():
+            raise InvalidInputError(f"Jelly: the simulation blew up (stiffness {self.k:g} is too stiff for the step "
+                                    f"dt {self.dt:g} s); lower the stiffness or the step")
         self._traj = traj
 
     def __call__(self, t):
         if self._traj is None:
             self._simulate()
-        x = min(max(float(t), 0.0), self.duration) / self.dt
+        x = min(max(self._t(t), 0.0), self.duration) / self.dt
         i = min(int(np.floor(x)), self._traj.shape[0] - 2)
         f = x - i
         return ((1.0 - f) * self._traj[i] + f * self._traj[i + 1]).reshape(self.rest.shape)
@@ -468,7 +483,12 @@ def run_animation(mesh, lattice: Lattice, animator, frames=24, axes: str = "xyz"
     vols = np.empty(T)
     plain = np.empty(T)
     for f, t in enumerate(times):
-        P = np.asarray(animator(t), dtype=np.float64).reshape(*shape, 3)
+        P = np.asarray(animator(t), dtype=np.float64)
+        if P.size != cps[f].size:
+            raise InvalidInputError(f"run_animation: the animator gave control points of shape {P.shape} at t = {t:g} "
+                                    f"s, but the lattice is {'x'.join(map(str, shape))} (expected {(*shape, 3)}); "
+                                    f"was it built on another lattice?")
+        P = P.reshape(*shape, 3)
         r = deformer.deform(P, preserve_volume=preserve, axes=axes if preserve else "xyz")
         cps[f], corrected[f] = P, r.control_points
         if keep_vertices:

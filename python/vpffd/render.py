@@ -28,8 +28,12 @@ def _require_embree(where: str) -> None:
 
 def _size(size, where="render") -> tuple:
     try:
+        if isinstance(size, (str, bytes)):
+            raise TypeError
         w, h = (int(s) for s in size)
-    except (TypeError, ValueError):
+        if (w, h) != tuple(size):  # 640.5 pixels, not silently 640
+            raise ValueError
+    except (TypeError, ValueError, OverflowError):
         raise InvalidInputError(f"{where}: size must be (width, height), got {size!r}") from None
     if w < 1 or h < 1 or w * h > 1 << 28:
         raise InvalidInputError(f"{where}: bad image size {w} x {h}")
@@ -84,7 +88,16 @@ class Camera:
         if hasattr(mesh_or_bounds, "vertices"):
             pts = np.asarray(mesh_or_bounds.vertices, dtype=np.float64)
         else:
-            pts = np.asarray(mesh_or_bounds, dtype=np.float64).reshape(-1, 3)
+            pts = np.asarray(mesh_or_bounds, dtype=np.float64)
+        if pts.ndim == 0 or pts.shape[-1] != 3:
+            raise InvalidInputError(f"Camera.framing: expected (n, 3) points or a (2, 3) box, got shape {pts.shape}")
+        pts = pts.reshape(-1, 3)
+        fov = float(fov)
+        if not 0 < fov < 180:
+            raise InvalidInputError(f"Camera.framing: fov must be in (0, 180) degrees, got {fov}")
+        margin = float(margin)
+        if not (math.isfinite(margin) and margin > 0):
+            raise InvalidInputError(f"Camera.framing: margin must be a positive number, got {margin}")
         if pts.shape[0] == 0 or not np.isfinite(pts).all():
             raise InvalidInputError("Camera.framing: no finite points to frame")
         lo, hi = pts.min(axis=0), pts.max(axis=0)
@@ -111,9 +124,12 @@ class Camera:
     def ray(self, x, y, size=(800, 600)):
         """(origin, unit direction) of the ray through pixel (x, y) of an image of ``size``."""
         w, h = _size(size, "Camera.ray")
+        x, y = float(x), float(y)
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise InvalidInputError(f"Camera.ray: pixel ({x}, {y}) is not finite")
         f, r, u, t = self._frame()
-        sx = (2.0 * (float(x) + 0.5) / w - 1.0) * t * w / h
-        sy = (1.0 - 2.0 * (float(y) + 0.5) / h) * t
+        sx = (2.0 * (x + 0.5) / w - 1.0) * t * w / h
+        sy = (1.0 - 2.0 * (y + 0.5) / h) * t
         d = f + sx * r + sy * u
         return self.eye.copy(), d / np.linalg.norm(d)
 
@@ -121,7 +137,10 @@ class Camera:
         """(n, 2) continuous pixel coordinates (x, y) of world points; a point at
         (x, y) lies in pixel (floor(x + 0.5), floor(y + 0.5)). NaN behind the camera."""
         w, h = _size(size, "Camera.project")
-        P = np.atleast_2d(np.asarray(points, dtype=np.float64)) - self.eye
+        P = np.atleast_2d(np.asarray(points, dtype=np.float64))
+        if P.ndim != 2 or P.shape[1] != 3:
+            raise InvalidInputError(f"Camera.project: expected (n, 3) points, got shape {np.shape(points)}")
+        P = P - self.eye
         f, r, u, t = self._frame()
         z = P @ f
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -255,7 +274,14 @@ def colormap(values, cmap=None, vmin=None, vmax=None) -> np.ndarray:
     v = np.asarray(values, dtype=np.float64).reshape(-1)
     if not np.isfinite(v).all():
         raise InvalidInputError("colormap: values contain NaN or Inf")
-    signed = v.size and v.min() < 0 < v.max()
+    if v.size == 0:
+        return np.zeros((0, 3))
+    for nm, x in (("vmin", vmin), ("vmax", vmax)):
+        if x is not None and not math.isfinite(float(x)):
+            raise InvalidInputError(f"colormap: {nm} must be a finite number, got {x!r}")
+    if vmin is not None and vmax is not None and float(vmin) > float(vmax):
+        raise InvalidInputError(f"colormap: vmin {vmin!r} is above vmax {vmax!r}")
+    signed = v.min() < 0 < v.max()
     if cmap is None:
         cmap = "coolwarm" if signed else "viridis"
     if cmap not in COLORMAPS:
@@ -322,7 +348,7 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
     camera : Camera, optional
         default: ``Camera.framing`` of the mesh (and of the lattice, when drawn).
     lattice : vpffd.Lattice, optional
-        draws its ``control_points`` (or ``control_points``) as points joined by lines.
+        draws its ``control_points`` (or the ``control_points`` argument) as points joined by lines.
     size : (width, height)
     colors : (V, 3) RGB in [0, 1] (or uint8), or (V,) scalars, optional
         per-vertex colours, interpolated over the faces; scalars go through
@@ -350,15 +376,20 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
     w, h = _size(size)
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= 8:
         raise InvalidInputError(f"render: samples must be an integer in 1..8, got {samples!r}")
+    r_max = max(w, h, 8)  # the C++ loop covers (2 r)^2 pixels per control point
+    if not (math.isfinite(float(point_radius)) and 0 <= float(point_radius) <= r_max):
+        raise InvalidInputError(f"render: point_radius must be in 0..{r_max} pixels, got {point_radius!r}")
+    if not 0 <= float(hidden_alpha) <= 1:
+        raise InvalidInputError(f"render: hidden_alpha must be in [0, 1], got {hidden_alpha!r}")
     cp = None
     if control_points is not None:
         cp = np.asarray(control_points, dtype=np.float64)
-        if cp.ndim != 4 or cp.shape[3] != 3:
-            raise InvalidInputError(f"render: control_points must have shape (nu, nv, nw, 3), got {cp.shape}")
     elif lattice is not None:
         if not hasattr(lattice, "control_points"):
             raise TypeError(f"render: lattice must be a vpffd.Lattice, got {type(lattice).__name__}")
         cp = np.asarray(lattice.control_points, dtype=np.float64)
+    if cp is not None and (cp.ndim != 4 or cp.shape[3] != 3):
+        raise InvalidInputError(f"render: control_points must have shape (nu, nv, nw, 3), got {cp.shape}")
     if cp is not None and not np.isfinite(cp).all():
         raise InvalidInputError("render: control points contain NaN or Inf")
     if camera is None:
@@ -436,7 +467,10 @@ def load_png(path) -> np.ndarray:
     if depth != 8 or interlace or ctype not in (0, 2, 6):
         raise _core.MeshIOError(f"load_png: '{path}': only 8-bit non-interlaced grey/RGB/RGBA is supported")
     c = {0: 1, 2: 3, 6: 4}[ctype]
-    raw = np.frombuffer(zlib.decompress(b"".join(idat)), np.uint8).reshape(h, 1 + w * c)
+    try:
+        raw = np.frombuffer(zlib.decompress(b"".join(idat)), np.uint8).reshape(h, 1 + w * c)
+    except (zlib.error, ValueError):
+        raise _core.MeshIOError(f"load_png: '{path}': truncated or corrupt image data") from None
     out = np.zeros((h, w * c), np.int32)
     for y in range(h):
         ft, line = raw[y, 0], raw[y, 1:].astype(np.int32)

@@ -116,6 +116,35 @@ def test_bad_parameters(cube):
         Twist("not a lattice", 90)
 
 
+def test_bad_animator_arguments_and_times(cube):
+    mesh, lat = cube
+    with pytest.raises(TypeError):  # was AttributeError: 'str' object has no attribute 'rest_points'
+        BouncingBall("not a lattice")
+    for bounces in (0, 1.5, -1):  # 1.5 was silently one bounce
+        with pytest.raises(vpffd.InvalidInputError, match="bounces"):
+            BouncingBall(lat, bounces=bounces)
+    with pytest.raises(vpffd.InvalidInputError, match="bottom"):
+        BouncingBall(lat, bottom=-np.inf)
+    # a time that is not a number gave NaN control points or a bare ValueError
+    for a in (BouncingBall(lat), Jelly(lat, duration=0.2), Twist(lat, 90)):
+        with pytest.raises(vpffd.InvalidInputError, match="time"):
+            a(float("nan"))
+
+
+def test_unstable_jelly_is_reported(cube):
+    _, lat = cube
+    with np.errstate(over="raise", invalid="raise"):  # no overflow warnings (as errors) either
+        with pytest.raises(vpffd.InvalidInputError, match="stiff"):
+            Jelly(lat, stiffness=1e6, duration=0.5)(0.5)  # returned NaN control points
+
+
+def test_animator_of_another_lattice(cube):
+    mesh, lat = cube
+    other = vpffd.Lattice.around(mesh, shape=(6, 6, 6), degree=3)
+    with pytest.raises(vpffd.InvalidInputError, match="another lattice"):  # was numpy's "cannot reshape"
+        run_animation(mesh, lat, Twist(other, 90), frames=2)
+
+
 def test_bouncing_ball_motion(ball):
     mesh, lat = ball
     bottom = mesh.bounds[0, 2]

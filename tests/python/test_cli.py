@@ -108,9 +108,21 @@ def test_bad_arguments_exit_2_with_one_line(args, fragment, capsys):
 
 def test_bad_values_after_parsing_exit_2(tmp_path, capsys):
     src = _write_obj(tmp_path / "ball.obj", shapes.icosphere(1))
-    for extra in (["--squash", "0"], ["--lattice", "3x3x3"], ["--render", "x.jpg"]):
-        assert main(["deform", str(src), str(tmp_path / "o.obj"), *extra]) == 2
+    for extra in (["--squash", "0"], ["--lattice", "3x3x3"], ["--render", "x.jpg"], ["--padding", "-0.5"],
+                  ["--bend", "30", "--toward", "z"], ["--axis", "x", "--bend", "30"]):
+        assert main(["deform", str(src), str(tmp_path / "o.obj"), *extra]) == 2, extra
         _one_line_error(capsys.readouterr().err, "vpffd deform")
+    assert not (tmp_path / "o.obj").exists()
+    for extra in (["--degree", "9"], ["--lattice", "3"]):  # as for deform, not exit 1 from deep inside
+        assert main(["bench", "--no-shared", "--repeats", "1", *extra]) == 2, extra
+        assert "--" in _one_line_error(capsys.readouterr().err, "vpffd bench")
+
+
+def test_render_folder_checked_before_any_work(tmp_path, capsys):
+    src = _write_obj(tmp_path / "ball.obj", shapes.icosphere(1))
+    assert main(["deform", str(src), str(tmp_path / "o.obj"), "--render", str(tmp_path / "no" / "o.png")]) == 1
+    assert "does not exist" in _one_line_error(capsys.readouterr().err, "vpffd deform")
+    assert not (tmp_path / "o.obj").exists()
 
 
 def test_missing_and_bad_files_exit_1(tmp_path):

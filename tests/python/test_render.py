@@ -155,5 +155,58 @@ def test_bad_arguments(sphere, tmp_path):
         vpffd.save_png(tmp_path / "missing" / "x.png", np.zeros((3, 3, 3), np.uint8))
 
 
+def test_bad_overlay_options_are_refused(sphere):
+    """Out-of-range overlay options gave garbage pixels (NaN alpha), silently
+    wrong blending (alpha > 1) or a practically endless C++ loop (huge radius)."""
+    lat = vpffd.Lattice.around(sphere, shape=(4, 4, 4))
+    for kw in (dict(hidden_alpha=np.nan), dict(hidden_alpha=5.0), dict(hidden_alpha=-0.5), dict(point_radius=-1.0),
+               dict(point_radius=np.nan), dict(point_radius=np.inf), dict(point_radius=1e9)):
+        with pytest.raises(vpffd.InvalidInputError):
+            vpffd.render(sphere, lattice=lat, size=(16, 12), **kw)
+    vpffd.render(sphere, lattice=lat, size=(4, 3))  # the default radius still works on a tiny image
+
+
+def test_bad_sizes_are_refused(sphere):
+    # a string is a sequence of digits: "12" used to give a 1 x 2 image
+    for size in ("12", (10.5, 10), (10, 10, 10), (np.nan, 10)):
+        with pytest.raises(vpffd.InvalidInputError):
+            vpffd.render(sphere, size=size)
+    assert vpffd.render(sphere, size=(np.int64(12), 10.0)).shape == (10, 12, 3)
+
+
+def test_camera_framing_and_project_bad_arguments(sphere):
+    with pytest.raises(vpffd.InvalidInputError):
+        vpffd.Camera.framing(sphere, fov=0)  # was ZeroDivisionError
+    for margin in (0.0, -1.0, np.nan):  # -1 put the camera behind the mesh, looking away
+        with pytest.raises(vpffd.InvalidInputError):
+            vpffd.Camera.framing(sphere, margin=margin)
+    with pytest.raises(vpffd.InvalidInputError):  # 12 numbers were silently read as 4 points
+        vpffd.Camera.framing(np.zeros((6, 2)))
+    cam = vpffd.Camera.framing(sphere.vertices.reshape(1, -1, 3))
+    assert np.allclose(cam.target, vpffd.Camera.framing(sphere).target)
+    with pytest.raises(vpffd.InvalidInputError):
+        cam.project(np.zeros((4, 2)))
+    with pytest.raises(vpffd.InvalidInputError, match="Camera.ray"):  # was a NaN ray
+        cam.ray(np.nan, 3)
+
+
+def test_colormap_ranges():
+    from vpffd.render import colormap
+    assert colormap([]).shape == (0, 3)
+    for kw in (dict(vmin=np.nan), dict(vmax=np.inf), dict(vmin=2.0, vmax=0.0)):
+        with pytest.raises(vpffd.InvalidInputError):
+            colormap([0.0, 1.0, 2.0], **kw)
+    c = colormap([0.0, 1.0, 2.0], vmin=0.0, vmax=2.0)
+    assert not np.allclose(c[0], c[2])
+
+
+def test_load_png_corrupt_file(tmp_path):
+    vpffd.save_png(tmp_path / "a.png", np.zeros((8, 8, 3), np.uint8))
+    data = (tmp_path / "a.png").read_bytes()
+    (tmp_path / "t.png").write_bytes(data[:-20])  # IDAT cut short
+    with pytest.raises(vpffd.MeshIOError, match="t.png"):
+        vpffd.load_png(tmp_path / "t.png")
+
+
 if __name__ == "__main__":  # regenerate the golden image (only after a deliberate change)
     vpffd.save_png(GOLDEN, golden_scene())
