@@ -174,6 +174,8 @@ def _cmd_deform(args) -> int:
     _check_lattice(args)
     if args.padding < 0:
         raise _UsageError(f"--padding: expected a margin >= 0, got {args.padding}")
+    if args.toward is None:  # the first other axis: "--axis x --bend 30" just works
+        args.toward = "y" if args.axis == "x" else "x"
     if args.bend is not None and args.toward == args.axis:
         raise _UsageError(f"--bend: --toward {args.toward} must differ from --axis {args.axis} (the axis that bends)")
     ext = _extension(args.output)
@@ -328,12 +330,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--taper", type=_finite, metavar="FACTOR", help="scale the top's cross-section by FACTOR")
     p.add_argument("--squash", type=_finite, metavar="FACTOR", help="scale along --axis by FACTOR")
     p.add_argument("--axis", choices=["x", "y", "z"], default="z", help="axis of the edits")
-    p.add_argument("--toward", choices=["x", "y", "z"], default="x", help="direction --bend curves towards")
+    p.add_argument("--toward", choices=["x", "y", "z"],
+                   help="direction --bend curves towards (default: x, or y when --axis is x)")
     p.add_argument("--drag", type=_drag, action="append", metavar="X,Y,Z:TX,TY,TZ",
                    help="move the rest-space point X,Y,Z to TX,TY,TZ exactly (repeatable)")
     p.add_argument("--preserve", choices=["xyz", "xy", "xz", "yz", "x", "y", "z", "none"], default="xyz",
                    help="axes the volume correction may move control points along, or none")
-    p.add_argument("--backend", default="auto", help="auto, openmp or serial")
+    p.add_argument("--backend", choices=["auto", "openmp", "serial", "vulkan"], default="auto",
+                   help="where frames run (default auto: a GPU for large meshes when there is one; the Vulkan "
+                        "device and precision follow VPFFD_VULKAN_DEVICE and VPFFD_VULKAN_PRECISION)")
     p.add_argument("--render", metavar="PNG", help="also write a picture of the result")
     p.add_argument("--size", type=_size, default=(800, 600), metavar="WxH",
                    help="--render picture size (default: 800x600)")

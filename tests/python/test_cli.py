@@ -93,6 +93,7 @@ def test_demo_no_render(tmp_path, capsys):
     (["deform", "a.obj", "b.obj", "--drag", "1,2:3,4,5"], "--drag"),
     (["deform", "a.obj", "b.obj", "--drag", "1,2,3"], "--drag"),
     (["deform", "a.obj", "b.obj", "--squash", "nan"], "--squash"),
+    (["deform", "a.obj", "b.obj", "--backend", "cuda"], "--backend"),
     (["demo", "--size", "huge"], "--size"),
     (["bench", "--repeats", "0"], "--repeats"),
     (["frobnicate"], "invalid choice"),
@@ -109,13 +110,19 @@ def test_bad_arguments_exit_2_with_one_line(args, fragment, capsys):
 def test_bad_values_after_parsing_exit_2(tmp_path, capsys):
     src = _write_obj(tmp_path / "ball.obj", shapes.icosphere(1))
     for extra in (["--squash", "0"], ["--lattice", "3x3x3"], ["--render", "x.jpg"], ["--padding", "-0.5"],
-                  ["--bend", "30", "--toward", "z"], ["--axis", "x", "--bend", "30"]):
+                  ["--bend", "30", "--toward", "z"], ["--axis", "x", "--bend", "30", "--toward", "x"]):
         assert main(["deform", str(src), str(tmp_path / "o.obj"), *extra]) == 2, extra
         _one_line_error(capsys.readouterr().err, "vpffd deform")
     assert not (tmp_path / "o.obj").exists()
     for extra in (["--degree", "9"], ["--lattice", "3"]):  # as for deform, not exit 1 from deep inside
         assert main(["bench", "--no-shared", "--repeats", "1", *extra]) == 2, extra
         assert "--" in _one_line_error(capsys.readouterr().err, "vpffd bench")
+
+
+def test_bend_about_x_needs_no_toward(tmp_path, capsys):
+    src = _write_obj(tmp_path / "ball.obj", shapes.icosphere(1))
+    assert main(["deform", str(src), str(tmp_path / "o.obj"), "--axis", "x", "--bend", "30"]) == 0
+    assert "towards y" in capsys.readouterr().out
 
 
 def test_render_folder_checked_before_any_work(tmp_path, capsys):
