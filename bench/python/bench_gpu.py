@@ -50,7 +50,8 @@ import numpy as np
 import vpffd
 
 ROOT = Path(__file__).resolve().parents[2]
-SHARED_MESHES = ROOT.parent / "shared" / "data" / "meshes"
+# VPFFD_SHARED_MESHES: where the meshes are on a machine without ../shared (a GPU machine).
+SHARED_MESHES = Path(os.environ.get("VPFFD_SHARED_MESHES") or ROOT.parent / "shared" / "data" / "meshes")
 
 
 def read_ply(path):
