@@ -13,4 +13,5 @@ cmake --install build/ctest --prefix build/install >/dev/null
 cmake -S examples/cpp -B build/example -G Ninja -DCMAKE_PREFIX_PATH="$PWD/build/install" --log-level=WARNING
 cmake --build build/example
 build/example/squash_sphere
+if [ -x build/example/gpu_frame ]; then build/example/gpu_frame; fi
 python -m pytest tests/python -q "$@"
