@@ -188,7 +188,7 @@ class Deformer:
     gpu_precision : {"auto", "float64", "float-float"}, optional
         How the Vulkan backend sums (weights, coefficients, volumes, offsets):
         float64, or float-float pairs (about 48 bits from float32 arithmetic, for
-        devices without float64 and those where it is slow; same tolerances).
+        devices without float64, and an option where it is slow; same tolerances).
         Default: the VPFFD_VULKAN_PRECISION environment variable, else "auto"
         (float64 where the device has it). Ignored on the CPU, which is float64.
     """

@@ -3,7 +3,8 @@
 // Default: float64 (needs shaderFloat64). With VPFFD_FLOAT_FLOAT: a float-float
 // pair vec2(hi, lo) whose value is hi + lo, |lo| <= ulp(hi) / 2: about 48
 // significant bits from float32 arithmetic alone, for devices without float64
-// (and for those whose float64 runs at 1/32 or 1/64 of the float32 rate). Both
+// (and an option for those whose float64 runs at 1/32 or 1/64 of the float32 rate:
+// each operation costs ~10-20 float32 ones, so it may or may not win there). Both
 // occupy 8 bytes, so the buffers have the same layout; the host converts at upload
 // and read-back (vulkan_deformer.cpp, put_reals/get_real).
 //
