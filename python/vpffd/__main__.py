@@ -185,6 +185,10 @@ def _cmd_deform(args) -> int:
                           f"expected one of {', '.join('.' + f for f in formats)}")
     if args.render and not args.render.lower().endswith(".png"):
         raise _UsageError(f"--render: expected a .png file name, got {args.render!r}")
+    if args.size is not None and not args.render:
+        raise _UsageError("--size: only applies to the --render picture; add --render PNG or drop --size")
+    if args.size is None:
+        args.size = (800, 600)
     for path in (args.output, args.render):
         out_dir = os.path.dirname(os.path.abspath(path)) if path else None
         if out_dir and not os.path.isdir(out_dir):
@@ -340,8 +344,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="where frames run (default auto: a GPU for large meshes when there is one; the Vulkan "
                         "device and precision follow VPFFD_VULKAN_DEVICE and VPFFD_VULKAN_PRECISION)")
     p.add_argument("--render", metavar="PNG", help="also write a picture of the result")
-    p.add_argument("--size", type=_size, default=(800, 600), metavar="WxH",
-                   help="--render picture size (default: 800x600)")
+    p.add_argument("--size", type=_size, default=None, metavar="WxH",
+                   help="--render picture size (default: 800x600; only with --render)")
     p.set_defaults(func=_cmd_deform)
 
     p = sub.add_parser("info", formatter_class=fmt, help="check a mesh file (closed, oriented, volume, ...)",

@@ -15,6 +15,7 @@ True
 """
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -54,6 +55,34 @@ def ease(s, kind: str = "linear"):
 _ease = ease  # the animators' ``ease`` arguments shadow the function
 
 
+def _real(v, name: str, who: str) -> float:
+    """``v`` as a float; a TypeError naming the parameter for anything but a
+    real number (a str, None, a sequence, a bool), not numpy's isfinite error."""
+    if not isinstance(v, (bool, np.bool_)):
+        if isinstance(v, numbers.Real):
+            return float(v)
+        if isinstance(v, np.ndarray) and v.ndim == 0 and v.dtype.kind in "iuf":
+            return float(v)
+    raise TypeError(f"{who}: {name} must be a real number, got {type(v).__name__} {v!r}")
+
+
+def _finite(v, name: str, who: str) -> float:
+    v = _real(v, name, who)
+    if not np.isfinite(v):
+        raise InvalidInputError(f"{who}: {name} must be a finite number, got {v}")
+    return v
+
+
+def _axis(axis, name: str, who: str) -> int:
+    """Validates an axis at construction (not at the first frame)."""
+    if not isinstance(axis, (bool, np.bool_)):
+        try:
+            return edits._axis(axis, name)
+        except (TypeError, InvalidInputError):  # TypeError: unhashable, e.g. a list
+            pass
+    raise InvalidInputError(f"{who}: {name} must be 'x', 'y', 'z' or 0..2, got {axis!r}")
+
+
 class Animator:
     """Base class: control points of one lattice as a function of time.
 
@@ -72,7 +101,7 @@ class Animator:
     def __init__(self, lattice: Lattice, duration: float = 1.0):
         if not isinstance(lattice, Lattice):
             raise TypeError(f"{type(self).__name__}: expected a vpffd.Lattice, got {type(lattice).__name__}")
-        duration = float(duration)
+        duration = _real(duration, "duration", type(self).__name__)
         if not (np.isfinite(duration) and duration > 0):
             raise InvalidInputError(f"{type(self).__name__}: duration must be a positive number, got {duration}")
         self.lattice = lattice
@@ -119,8 +148,9 @@ class Twist(Animator):
 
     def __init__(self, lattice, angle: float = 360.0, axis="z", ease: str = "linear", duration: float = 1.0):
         super().__init__(lattice, duration)
-        self.angle, self.axis, self.ease = float(angle), axis, ease
-        _ease(0.0, ease)  # reject a bad ease name now, not at the first frame
+        self.angle, self.axis, self.ease = _finite(angle, "angle", "Twist"), axis, ease
+        _axis(axis, "axis", "Twist")  # reject a bad axis or ease name now, not at the first frame
+        _ease(0.0, ease)
 
     def __call__(self, t):
         return edits.twist(self.rest, self.angle * float(_ease(self._s(t), self.ease)), self.axis)
@@ -135,7 +165,9 @@ class Bend(Animator):
     def __init__(self, lattice, angle: float = 90.0, axis="z", toward="x", ease: str = "linear",
                  duration: float = 1.0):
         super().__init__(lattice, duration)
-        self.angle, self.axis, self.toward, self.ease = float(angle), axis, toward, ease
+        self.angle, self.axis, self.toward, self.ease = _finite(angle, "angle", "Bend"), axis, toward, ease
+        if _axis(axis, "axis", "Bend") == _axis(toward, "toward", "Bend"):
+            raise InvalidInputError(f"Bend: toward ({toward!r}) must differ from the bend axis ({axis!r})")
         _ease(0.0, ease)
 
     def __call__(self, t):
@@ -149,7 +181,8 @@ class Taper(Animator):
 
     def __init__(self, lattice, factor: float = 0.3, axis="z", ease: str = "linear", duration: float = 1.0):
         super().__init__(lattice, duration)
-        self.factor, self.axis, self.ease = float(factor), axis, ease
+        self.factor, self.axis, self.ease = _finite(factor, "factor", "Taper"), axis, ease
+        _axis(axis, "axis", "Taper")
         _ease(0.0, ease)
 
     def __call__(self, t):
@@ -204,6 +237,10 @@ class BouncingBall(Animator):
         if isinstance(bounces, bool) or not isinstance(bounces, (int, np.integer)) or bounces < 1:
             raise InvalidInputError(f"BouncingBall: bounces must be a positive integer, got {bounces!r}")
         rest = np.asarray(lattice.rest_points)
+        drop, squash, stretch, gravity = (_real(v, nm, "BouncingBall") for nm, v in (
+            ("drop", drop), ("squash", squash), ("stretch", stretch), ("gravity", gravity)))
+        if bottom is not None:
+            bottom = _real(bottom, "bottom", "BouncingBall")
         for nm, v in (("drop", drop), ("squash", squash), ("gravity", gravity)):
             if not (np.isfinite(v) and v > 0):
                 raise InvalidInputError(f"BouncingBall: {nm} must be positive, got {v}")
@@ -296,8 +333,13 @@ class Jelly(Animator):
     def __init__(self, lattice, kick=(0.8, 0.0, -0.8), stiffness: float = 300.0, damping: float = 1.5,
                  axis="z", duration: float = 2.0, dt: float = 1.0 / 240.0):
         super().__init__(lattice, duration)
-        a = edits._axis(axis)
-        kick = np.asarray(kick, dtype=np.float64).reshape(-1)
+        a = _axis(axis, "axis", "Jelly")
+        stiffness, damping, dt = (_real(v, nm, "Jelly") for nm, v in (
+            ("stiffness", stiffness), ("damping", damping), ("dt", dt)))
+        try:
+            kick = np.asarray(kick, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise TypeError(f"Jelly: kick must be three real numbers, got {kick!r}") from None
         if kick.shape != (3,) or not np.all(np.isfinite(kick)):
             raise InvalidInputError(f"Jelly: kick must be three finite numbers, got {kick}")
         for nm, v in (("stiffness", stiffness), ("dt", dt)):
@@ -384,6 +426,10 @@ class AnimationResult:
     volumes_plain : (T,) float
         enclosed volume after the plain FFD of every frame.
     rest_volume : float
+        the enclosed volume of the undeformed mesh. NaN for an open mesh (only
+        possible with ``preserve=False``): an open mesh bounds no volume, so
+        ``volume_change``, ``volume_change_plain`` and ``max_volume_error`` are
+        NaN too.
     preserve : bool
     axes : str
         the correction axes ("" without preservation).
@@ -401,17 +447,19 @@ class AnimationResult:
 
     @property
     def volume_change(self) -> np.ndarray:
-        """(T,) relative volume change of the frames against the rest volume."""
+        """(T,) relative volume change of the frames against the rest volume
+        (NaN for an open mesh, which bounds no volume)."""
         return (self.volumes - self.rest_volume) / self.rest_volume
 
     @property
     def volume_change_plain(self) -> np.ndarray:
-        """(T,) relative volume change of the plain FFD frames."""
+        """(T,) relative volume change of the plain FFD frames (NaN for an open mesh)."""
         return (self.volumes_plain - self.rest_volume) / self.rest_volume
 
     @property
     def max_volume_error(self) -> float:
-        """Largest |volume - rest| / |rest| over the frames."""
+        """Largest |volume - rest| / |rest| over the frames (NaN for an open
+        mesh, which bounds no volume)."""
         return float(np.max(np.abs(self.volume_change)))
 
     @property
@@ -419,9 +467,16 @@ class AnimationResult:
         return f"preserved ({self.axes})" if self.preserve else "plain FFD"
 
     def mesh(self, frame: int) -> Mesh:
-        """The deformed mesh of one frame (needs ``keep_vertices=True``)."""
+        """The deformed mesh of one frame (needs ``keep_vertices=True``);
+        ``frame`` in [-T, T), negative counting from the end as in Python."""
         if self.vertices is None:
             raise InvalidInputError("AnimationResult.mesh: the run kept no vertices (keep_vertices=False)")
+        if isinstance(frame, (bool, np.bool_)) or not isinstance(frame, (int, np.integer)):
+            raise TypeError(f"AnimationResult.mesh: frame must be an integer, got {type(frame).__name__} {frame!r}")
+        T = len(self.vertices)
+        if not -T <= frame < T:
+            raise IndexError(f"AnimationResult.mesh: frame {frame} is out of range; this run has {T} frames "
+                             f"(valid: 0..{T - 1}, or -{T}..-1 from the end)")
         return Mesh(self.vertices[frame], self.faces)
 
 
@@ -459,6 +514,8 @@ def run_animation(mesh, lattice: Lattice, animator, frames=24, axes: str = "xyz"
     -------
     AnimationResult
     """
+    if not isinstance(preserve, (bool, np.bool_)):
+        raise TypeError(f"run_animation: preserve must be True or False, got {type(preserve).__name__} {preserve!r}")
     if deformer is None:
         deformer = Deformer(mesh, lattice, backend=backend)
     elif not isinstance(deformer, Deformer) or deformer.lattice is not lattice or (

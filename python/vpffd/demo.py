@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import importlib.util
+import re
 import sys
 import time
 from dataclasses import dataclass, field
@@ -143,6 +144,13 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
     faces = scene.mesh.faces
     fdir = out / scene.key
     fdir.mkdir(parents=True, exist_ok=True)
+    # frames of an earlier, longer run into the same folder would look like part
+    # of this one: remove those this run will not overwrite (our names only)
+    for old in fdir.glob("frame_*.png"):
+        m = re.fullmatch(r"frame_(\d+)\.png", old.name)
+        if m and old.name == f"frame_{int(m.group(1)):03d}.png" and int(m.group(1)) >= scene.frames \
+                and old.is_file():
+            old.unlink()
     written, sheet_cells, gif = [], {}, []
     total = scene.frames * len(keys)
     for f in range(scene.frames):
@@ -292,6 +300,9 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
         ``seconds``, ``rendered`` (bool).
     """
     stream = sys.stdout if stream is None else stream
+    if render:  # before minutes of deforming, not when the first frame is drawn
+        from .render import _size
+        size = _size(size, "run_demo")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()

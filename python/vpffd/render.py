@@ -207,9 +207,12 @@ class Scene:
 
     def pick_many(self, origins, directions):
         """Vectorised picking: (hit (n,) bool, face (n,) int64, barycentric (n, 3),
-        distance (n,) with inf for misses, point (n, 3))."""
-        O = _arrays.points(origins, "pick: origins")
-        D = _arrays.points(directions, "pick: directions", rows=O.shape[0])
+        distance (n,) with inf for misses, point (n, 3)); n may be 0."""
+        # an empty list has shape (0,): no rays, as (0, 3)
+        O, D = (np.zeros((0, 3)) if isinstance(a, (list, tuple)) and len(a) == 0 else a
+                for a in (origins, directions))
+        O = _arrays.points(O, "pick: origins", allow_empty=True)
+        D = _arrays.points(D, "pick: directions", rows=O.shape[0], allow_empty=True)
         hit, face, uv, dist, point = self._s.intersect(O, D, 0.0)
         bary = np.column_stack([1.0 - uv[:, 0] - uv[:, 1], uv[:, 0], uv[:, 1]])
         return hit, face, bary, dist, point
@@ -308,10 +311,7 @@ def _vertex_colors(colors, n, cmap, vmin, vmax):
             raise InvalidInputError(f"render: {c.shape[0]} colour values for {n} vertices")
         return colormap(c, cmap, vmin, vmax)
     if c.ndim == 2 and c.shape == (n, 3):
-        if c.dtype == np.uint8:
-            return c.astype(np.float64) / 255.0
-        c = _arrays.points(c, "render: colors")
-        return np.clip(c, 0.0, 1.0)
+        return _rgb(c, _arrays.points(c, "render: colors"), "colors")
     raise InvalidInputError(f"render: colors must be (V,) values or (V, 3) RGB for V={n}, got shape {c.shape}")
 
 
@@ -326,11 +326,31 @@ def lattice_lines(shape) -> np.ndarray:
     return np.ascontiguousarray(np.concatenate(pairs), dtype=np.int32)
 
 
+def _rgb(raw, a, name):
+    """RGB in [0, 1] from ``a`` (float64, validated) of the array ``raw`` given
+    by the caller. The dtype decides the scale, never the values: integers
+    (uint8, any int type, Python ints) are 0-255, floats are 0-1; values
+    outside the scale raise rather than being rescaled or clipped."""
+    if np.issubdtype(np.asarray(raw).dtype, np.integer):
+        if a.size and not (a.min() >= 0 and a.max() <= 255):
+            raise InvalidInputError(f"render: {name}: integer colours are 0-255, got values from {a.min():g} "
+                                    f"to {a.max():g}")
+        if np.asarray(raw).dtype != np.uint8 and a.size and a.max() == 1:
+            # (1, 1, 1) meant as white would be almost black: refuse the guess
+            raise InvalidInputError(f"render: {name}: integer colours are 0-255, so {raw!r} would be almost "
+                                    f"black; write 1.0 for a colour in [0, 1] or 255 for 0-255"
+                                    if np.ndim(raw) == 1 else
+                                    f"render: {name}: integer colours are 0-255, and these are all 0 or 1 "
+                                    f"(almost black); pass floats for colours in [0, 1] or uint8 for 0-255")
+        return a / 255.0
+    if a.size and not (a.min() >= 0.0 and a.max() <= 1.0):
+        raise InvalidInputError(f"render: {name}: float colours are in [0, 1] (integers are 0-255), got values "
+                                f"from {a.min():g} to {a.max():g}")
+    return a
+
+
 def _color3(c, name):
-    a = _arrays.vector3(c, f"render: {name}")
-    if a.max() > 1.0 and a.max() <= 255.0:
-        a = a / 255.0
-    return np.clip(a, 0.0, 1.0)
+    return _rgb(c, _arrays.vector3(c, f"render: {name}"), name)
 
 
 # --- rendering ------------------------------------------------------------------
@@ -350,18 +370,25 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
     lattice : vpffd.Lattice, optional
         draws its ``control_points`` (or the ``control_points`` argument) as points joined by lines.
     size : (width, height)
-    colors : (V, 3) RGB in [0, 1] (or uint8), or (V,) scalars, optional
+    colors : (V, 3) RGB, or (V,) scalars, optional
         per-vertex colours, interpolated over the faces; scalars go through
         ``colormap(values, cmap, vmin, vmax)`` (e.g. the local volume change).
+        RGB colours (this and the ``*_color`` and ``background`` arguments)
+        are read by dtype: floats in [0, 1], integers (uint8 or any int
+        type, Python ints included) in 0-255; values outside the range raise
+        InvalidInputError. So ``(1.0, 1.0, 1.0)`` and ``(255, 255, 255)`` are
+        white; integer colours of only 0s and 1s such as ``(1, 1, 1)`` are
+        refused as ambiguous.
     control_points : (nu, nv, nw, 3), optional
         control points to draw instead of ``lattice.control_points``.
-    background, base_color : RGB in [0, 1]
+    background, base_color : RGB, floats in [0, 1] or integers in 0-255
     samples : int
         supersampling per axis (1..8); 2 gives smoother edges at 4x the cost.
     normals : (V, 3), optional
         shading normals (default: area-weighted vertex normals of the mesh).
     lines, points : bool
         draw the lattice's lines / control points.
+    line_color, point_color : RGB, floats in [0, 1] or integers in 0-255
     hidden_alpha : float
         opacity of lattice parts hidden behind the surface.
     return_depth : bool

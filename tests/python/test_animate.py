@@ -207,3 +207,66 @@ def test_paper_bouncing_ball_figure():
                       axes="xy", keep_vertices=False)
     np.testing.assert_allclose(-r.volume_change_plain[1:], [0.297, 0.501, 0.636], atol=0.002)
     assert r.max_volume_error < TOL
+
+
+def test_bad_axes_refused_at_construction(cube):
+    """A bad axis (or toward == axis) was accepted and failed only at the first frame."""
+    _, lat = cube
+    for make, match in ((lambda: Twist(lat, 90, axis="w"), "axis"), (lambda: Taper(lat, axis=5), "axis"),
+                        (lambda: Twist(lat, 90, axis=[2]), "axis"), (lambda: Taper(lat, axis=True), "axis"),
+                        (lambda: Bend(lat, 30, axis="q"), "axis"), (lambda: Bend(lat, 30, toward="w"), "toward"),
+                        (lambda: Bend(lat, 30, axis="z", toward="z"), "toward"),
+                        (lambda: Bend(lat, 30, axis="x", toward=0), "toward"),
+                        (lambda: Jelly(lat, axis="up"), "axis")):
+        with pytest.raises(vpffd.InvalidInputError, match=match):
+            make()
+    assert Bend(lat, 30, axis="x", toward=1)(1.0).shape == lat.rest_points.shape  # 0..2 still accepted
+
+
+def test_non_numeric_parameters_name_the_parameter(cube):
+    """Strings and None gave numpy's "ufunc 'isfinite' not supported" TypeError,
+    naming nothing."""
+    _, lat = cube
+    for make, name in ((lambda: BouncingBall(lat, drop="a"), "drop"),
+                       (lambda: BouncingBall(lat, squash=None), "squash"),
+                       (lambda: BouncingBall(lat, stretch="x"), "stretch"),
+                       (lambda: BouncingBall(lat, gravity=[1, 2]), "gravity"),
+                       (lambda: BouncingBall(lat, bottom="low"), "bottom"),
+                       (lambda: Jelly(lat, damping="x"), "damping"), (lambda: Jelly(lat, stiffness=None), "stiffness"),
+                       (lambda: Jelly(lat, dt="0.01"), "dt"), (lambda: Jelly(lat, kick="abc"), "kick"),
+                       (lambda: Twist(lat, angle="a"), "angle"), (lambda: Taper(lat, factor=None), "factor"),
+                       (lambda: Twist(lat, 90, duration="2"), "duration")):
+        with pytest.raises(TypeError, match=name):
+            make()
+    with pytest.raises(vpffd.InvalidInputError, match="angle"):  # NaN control points at every frame
+        Twist(lat, angle=np.nan)
+    # numpy scalars are numbers
+    assert Twist(lat, np.float32(90), duration=np.int64(2)).duration == 2.0
+
+
+def test_run_animation_preserve_must_be_a_bool(cube):
+    mesh, lat = cube
+    with pytest.raises(TypeError, match="preserve"):  # "no" was truthy: silently preserved
+        run_animation(mesh, lat, Twist(lat, 90), frames=2, preserve="no")
+    assert not run_animation(mesh, lat, Twist(lat, 90), frames=2, preserve=np.bool_(False)).preserve
+
+
+def test_animation_mesh_frame_range(cube):
+    mesh, lat = cube
+    r = run_animation(mesh, lat, Twist(lat, 90), frames=4, preserve=False)
+    np.testing.assert_array_equal(r.mesh(-1).vertices, r.vertices[3])
+    np.testing.assert_array_equal(r.mesh(np.int64(2)).vertices, r.vertices[2])
+    for bad in (4, -5, 100):  # was numpy's "index 4 is out of bounds for axis 0"
+        with pytest.raises(IndexError, match=r"0\.\.3"):
+            r.mesh(bad)
+
+
+def test_open_mesh_volume_is_nan_and_documented(cube):
+    mesh, lat = cube
+    open_mesh = vpffd.Mesh(mesh.vertices, mesh.faces[:-2])
+    r = run_animation(open_mesh, lat, Twist(lat, 90), frames=2, preserve=False)
+    assert np.isnan(r.rest_volume) and np.isnan(r.max_volume_error)
+    for doc in (AnimationResult.__doc__, AnimationResult.volume_change.__doc__,
+                AnimationResult.max_volume_error.__doc__):
+        doc = " ".join(doc.split())
+        assert "open mesh" in doc and "NaN" in doc

@@ -234,3 +234,48 @@ def test_progress_bar_only_after_a_second():
     q(3, 3)
     q.close()
     assert quiet.getvalue() == ""
+
+
+def test_deform_size_needs_render(tmp_path, capsys):
+    """--size without --render was silently ignored."""
+    src = _write_obj(tmp_path / "ball.obj", shapes.icosphere(1))
+    assert main(["deform", str(src), str(tmp_path / "o.obj"), "--size", "160x120"]) == 2
+    assert "--size" in _one_line_error(capsys.readouterr().err, "vpffd deform")
+    assert not (tmp_path / "o.obj").exists()
+
+
+def test_demo_size_checked_before_deforming(tmp_path, monkeypatch):
+    """A bad size failed only after all the deforming, at the first frame drawn."""
+    from vpffd import demo
+
+    def no_deforming(*a, **k):
+        raise AssertionError("deformed before checking the size")
+
+    monkeypatch.setattr(demo, "run_animation", no_deforming)
+    for size in ((0, 10), "big", (10.5, 10)):
+        with pytest.raises(vpffd.InvalidInputError, match="size"):
+            demo.run_demo(out=tmp_path / "d", quick=True, size=size)
+    assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.skipif(not (HAS_RENDER and vpffd._core.has_embree and importlib.util.find_spec("PIL")),
+                    reason="needs vpffd.render with Embree and Pillow")
+def test_demo_rerun_removes_stale_frames(tmp_path):
+    """Frames of an earlier, longer run stayed next to the new ones."""
+    import io
+
+    from vpffd.demo import run_demo
+    fdir = tmp_path / "twisting_cube"  # 9 frames with quick: frame_000..frame_008
+    fdir.mkdir()
+    for name in ("frame_008.png", "frame_009.png", "frame_024.png", "frame_1000.png",
+                 "frame_9.png", "frame_0024.png", "frame_010.png.bak", "notes.png"):
+        (fdir / name).write_bytes(b"old")
+    r = run_demo(out=tmp_path, quick=True, size=(16, 12), stream=io.StringIO())
+    assert r["rendered"]
+    names = sorted(p.name for p in fdir.iterdir())
+    assert [n for n in names if n.startswith("frame_") and n.endswith(".png") and len(n) == 13] == \
+        [f"frame_{i:03d}.png" for i in range(9)]
+    assert (fdir / "frame_008.png").read_bytes() != b"old"
+    for kept in ("frame_9.png", "frame_0024.png", "frame_010.png.bak", "notes.png"):  # not the demo's names
+        assert (fdir / kept).read_bytes() == b"old"
+    assert not (fdir / "frame_1000.png").exists()

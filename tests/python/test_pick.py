@@ -174,3 +174,16 @@ def test_concurrent_scenes_and_picks_from_threads(sphere):
     for r in results:
         np.testing.assert_array_equal(r[0], ref[0])
         np.testing.assert_array_equal(r[1], ref[1])
+
+
+def test_pick_many_empty():
+    """No rays gave "pick: origins: is empty"; now empty results of the usual dtypes."""
+    scene = vpffd.Scene(vpffd.shapes.icosphere(1))
+    full = scene.pick_many(np.zeros((1, 3)), np.ones((1, 3)))
+    for origins, directions in ((np.zeros((0, 3)), np.zeros((0, 3))), ([], [])):
+        empty = scene.pick_many(origins, directions)
+        assert len(empty) == len(full)
+        for e, f in zip(empty, full):
+            assert e.dtype == f.dtype and e.shape == (0,) + f.shape[1:]
+    with pytest.raises(vpffd.InvalidInputError):
+        scene.pick_many(np.zeros((0, 3)), np.zeros((1, 3)))

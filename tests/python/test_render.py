@@ -30,7 +30,7 @@ def golden_scene():
 def test_mesh_and_background_pixels(sphere):
     size = (64, 48)
     cam = vpffd.Camera.framing(sphere, size=size)
-    img, depth = vpffd.render(sphere, cam, size=size, background=(1, 1, 1), return_depth=True)
+    img, depth = vpffd.render(sphere, cam, size=size, background=(1.0, 1.0, 1.0), return_depth=True)
     assert img.shape == (48, 64, 3) and img.dtype == np.uint8
     mesh_px = np.isfinite(depth)
     # Background pixels are exactly the background colour; mesh pixels are shaded grey.
@@ -73,6 +73,32 @@ def test_background_and_vertex_colours(sphere):
     img = vpffd.render(sphere, front, size=(40, 30), colors=s).astype(int)
     left, right = img[15, 15], img[15, 25]
     assert left[2] > left[0] and right[0] > right[2]
+
+
+def test_colour_scale_follows_the_dtype(sphere):
+    """Floats are 0-1 and integers 0-255, whatever the values: base_color
+    (1.2, 0.5, 0.5) was read as 0-255 (almost black) and int64 (V, 3) colours in
+    0-255 were clipped to white. Out-of-range values raise, naming the argument."""
+    cam = vpffd.Camera.framing(sphere, size=(24, 18))
+
+    def draw(**kw):
+        return vpffd.render(sphere, cam, size=(24, 18), **kw)
+
+    for kw, name in ((dict(base_color=(1.2, 0.5, 0.5)), "base_color"), (dict(background=(-0.1, 0, 0.0)), "background"),
+                     (dict(background=(256, 0, 0)), "background"), (dict(line_color=(0, 0, -1)), "line_color"),
+                     (dict(background=(1, 1, 1)), "background"),  # meant white? as 0-255 it is almost black
+                     (dict(colors=np.full((sphere.n_vertices, 3), 1.5)), "colors"),
+                     (dict(colors=np.full((sphere.n_vertices, 3), 300)), "colors")):
+        with pytest.raises(vpffd.InvalidInputError, match=name):
+            draw(**kw)
+    V = sphere.n_vertices
+    ref = draw(colors=np.full((V, 3), 200 / 255), background=(0.0, 0.2, 0.4), base_color=(0.5, 0.5, 0.5))
+    for ints in (np.int64, np.int32, np.uint16, np.uint8):
+        img = draw(colors=np.full((V, 3), 200, ints), background=np.array([0, 51, 102], ints))
+        np.testing.assert_array_equal(img, ref, err_msg=str(ints))
+    np.testing.assert_array_equal(draw(background=(0, 51, 102), base_color=(128, 128, 128)),  # Python ints
+                                  draw(background=(0.0, 0.2, 0.4), base_color=(128 / 255,) * 3))
+    assert "0-255" in vpffd.render.__doc__
 
 
 def test_lattice_overlay(sphere):
