@@ -114,6 +114,11 @@ class VulkanDeformer:
     def origin(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]:
         ...
     @property
+    def scale(self) -> float:
+        """
+        Unit of the device positions: (world - origin) / scale (a power of two).
+        """
+    @property
     def vertex_buffer_handle(self) -> int:
         ...
     @property

@@ -486,3 +486,23 @@ print("done")
     # ... and said nothing.
     problems = [ln for ln in log.splitlines() if "Validation" in ln or "VUID-" in ln or "SYNC-" in ln]
     assert "done" in out.stdout and not problems, problems[:5]
+
+
+@pytest.mark.parametrize("size", [1e-9, 1e9])
+def test_any_mesh_size(precision, size):
+    # Device lengths are in a power-of-two unit near the lattice size: float-float
+    # (float32's exponent range) would underflow on a 1e-9 mesh (its squared volume
+    # coefficients ~1e-40) and overflow on a 1e9 one without it.
+    mesh = vpffd.shapes.icosphere(2, radius=size)
+    lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3)
+    cpu, gpu = pair(mesh, lat, precision)
+    assert gpu._vk.scale == 2.0 ** np.round(np.log2(0.5 * np.linalg.norm(lat.box_max - lat.box_min)))
+    P = edit(lat)
+    cons = [(7, cpu.ffd(P)[7] + [0.0, 0.02 * size, 0.0])]  # along y only: allowed with axes="y"
+    for kw in (dict(), dict(axes="y", constraints=cons), dict(constraints=cons, preserve_volume=False)):
+        c, g = cpu.deform(P, **kw), gpu.deform(P, **kw)
+        assert_close(g, c, lat)
+        np.testing.assert_allclose(g.offsets, c.offsets, atol=1e-4 * np.abs(c.offsets).max())
+        for sg, sc in zip(g.steps, c.steps):
+            assert abs(sg["sum_squares"] - sc["sum_squares"]) <= 1e-5 * sc["sum_squares"]
+            assert abs(sg["max_offset"] - sc["max_offset"]) <= 1e-4 * sc["max_offset"]

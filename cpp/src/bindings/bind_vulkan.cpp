@@ -59,6 +59,8 @@ void bind_vulkan(py::module_& m) {
           "The CPU Deformer of the same mesh (rest volume, ffd, jacobians, matrices).")
       .def_property_readonly("device", [](const VulkanDeformer& d) { return device_to_python(d.device()); })
       .def_property_readonly("origin", &VulkanDeformer::origin)
+      .def_property_readonly("scale", &VulkanDeformer::scale,
+                             "Unit of the device positions: (world - origin) / scale (a power of two).")
       .def_property_readonly(
           "precision", [](const VulkanDeformer& d) { return std::string(vulkan::precision_name(d.precision())); },
           "How the device sums: 'float64' or 'float-float'.")

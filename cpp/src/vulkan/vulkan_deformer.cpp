@@ -1,13 +1,17 @@
 // VulkanDeformer: one frame of volume-preserving FFD as one queue submission.
 //
 // Device data (all in the device's vertex order, vertices sorted by lattice cell):
-//   X (3V float, positions minus the origin), F (3F int), vertex-face adjacency,
+//   X (3V float, (positions - origin) / scale), F (3F int), vertex-face adjacency,
 //   per vertex the first control point index and the local parameter per axis,
 //   the per-span power-form basis table, the tiles (runs of <= 64 vertices of one
 //   cell) and, per control point, the list of tile partials that touch it.
 // A frame runs: upload copies -> FFD -> [volume] -> per axis step [coefficients ->
 // combine -> solve (offsets included) -> vertex update] -> volume -> copies of the
-// offsets, the step results and the volume partials to the host. See
+// offsets, the step results and the volume partials to the host. Lengths on the
+// device are in units of `scale`, the power of two nearest to the lattice's half
+// diagonal: float-float has float32's exponent range (volume coefficients squared
+// of a 1e-9 m mesh would underflow it, those of a 1e10 mm one overflow it), and a
+// power of two scales every float exactly, so float64 results do not change. See
 // shaders/common.glsl for the precision and determinism rules, shaders/real.glsl for
 // the two kinds of sums (float64, float-float) and their common buffer layout.
 //
@@ -163,6 +167,7 @@ struct VulkanDeformer::Impl {
   std::uint32_t g_vert = 1, g_face = 1, g_cp = 1, g_tile = 1;
   std::vector<std::int32_t> order;  // device vertex i is input vertex order[i]
   Vector3d origin;
+  double scale = 1.0;  // device lengths = world lengths / scale (a power of two)
 
   // Order = binding numbers of shaders/common.glsl.
   enum Buf {
@@ -337,7 +342,7 @@ struct VulkanDeformer::Impl {
     const float* x = static_cast<const float*>(rb_X.mapped());
     RowMatrixX3d out(nv, 3);
     for (Index i = 0; i < nv; ++i)
-      for (int a = 0; a < 3; ++a) out(order[i], a) = double(x[3 * i + a]) + origin[a];
+      for (int a = 0; a < 3; ++a) out(order[i], a) = double(x[3 * i + a]) * scale + origin[a];
     return out;
   }
 
@@ -434,6 +439,10 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   nf = c.n_faces();
   N = c.n_control_points();
   origin = c.origin();
+  {
+    const double half = 0.5 * (L.box_max - L.box_min).norm();
+    scale = std::isfinite(half) && half > 0 ? std::exp2(std::round(std::log2(half))) : 1.0;
+  }
   const auto dims = L.dims();
   KKK = T.order[0] * T.order[1] * T.order[2];
   if (nv * 3 >= (Index(1) << 31) || nf * 3 >= (Index(1) << 31))
@@ -479,7 +488,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
     for (int a = 0; a < 3; ++a) {
       span[3 * i + a] = E.span[a][v] - T.poly[a].degree;
       tau[3 * i + a] = static_cast<float>(E.tau[a][v]);
-      X0[3 * i + a] = static_cast<float>(V(v, a) - origin[a]);
+      X0[3 * i + a] = static_cast<float>((V(v, a) - origin[a]) / scale);
     }
   }
   std::vector<float> poly;
@@ -799,6 +808,7 @@ FrameTimings VulkanDeformer::last_timings() const {
   return impl_->timings;
 }
 const Vector3d& VulkanDeformer::origin() const { return impl_->origin; }
+double VulkanDeformer::scale() const { return impl_->scale; }
 std::uint64_t VulkanDeformer::vertex_buffer_handle() const {
   return reinterpret_cast<std::uint64_t>(impl_->buf[Impl::bX].handle());
 }
@@ -878,24 +888,26 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   {
     float* p = static_cast<float*>(m.up_P.mapped());
     for (Index c = 0; c < N; ++c)
-      for (int a = 0; a < 3; ++a) p[3 * c + a] = static_cast<float>(P(c, a) - m.origin[a]);
+      for (int a = 0; a < 3; ++a) p[3 * c + a] = static_cast<float>((P(c, a) - m.origin[a]) / m.scale);
   }
   m.reserve(Impl::bFrame, &m.up_frame, 8 * (FR_RHS + 3 * nc), "frame parameters");
   {
     std::vector<double> fr(FR_RHS + 3 * nc, 0.0);
-    fr[FR_TARGET] = target;  // volumes on the device are relative to the origin, like the CPU's
+    // Volumes on the device are relative to the origin, like the CPU's; lengths in scale units.
+    const double s = m.scale, s3 = s * s * s;
+    fr[FR_TARGET] = target / s3;
     fr[FR_MAX_INVW] = inv_weight.maxCoeff();
     fr[FR_HI] = m.cons.hi;
     for (int a = 0; a < 3; ++a) {
       const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, P.col(a));
-      std::copy(rhs.begin(), rhs.end(), fr.begin() + FR_RHS + a * nc);
+      for (size_t i = 0; i < nc; ++i) fr[FR_RHS + a * nc + i] = rhs[i] / s;
     }
     put_reals(m.up_frame.mapped(), fr.data(), fr.size(), m.ff);
   }
   if (shape.mode == Shape::HostOffsets) {
     std::vector<double> dl(3 * N);
     for (int a = 0; a < 3; ++a)
-      for (Index c = 0; c < N; ++c) dl[a * N + c] = res.offsets(c, a);
+      for (Index c = 0; c < N; ++c) dl[a * N + c] = res.offsets(c, a) / m.scale;
     put_reals(m.up_delta.mapped(), dl.data(), dl.size(), m.ff);
   }
 
@@ -923,9 +935,11 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
 
   // --- results -------------------------------------------------------------------------
   // Step results: volume_before, share, sum_squares, max_offset, status, detail.
+  // (in device units: lengths / scale, volumes / scale^3, sum_squares / scale^4)
   auto stat = [&](int step, int i) {
     return get_real(m.rb_stats.mapped(), ST_STEP + step * ST_STEP_STRIDE + i, m.ff);
   };
+  const double s1 = m.scale, s3 = s1 * s1 * s1, s4 = s3 * s1;
   if (shape.mode == Shape::DeviceSteps) {
     for (int step = 0; step < k; ++step) {
       const char ax = axis_name[shape.axes[step]];
@@ -957,14 +971,14 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   res.target_volume = opt.preserve_volume ? target : std::numeric_limits<double>::quiet_NaN();
   if (shape.mode == Shape::DeviceSteps) {
     for (int a = 0; a < 3; ++a)
-      for (Index c = 0; c < N; ++c) res.offsets(c, a) = get_real(m.rb_delta.mapped(), a * N + c, m.ff);
+      for (Index c = 0; c < N; ++c) res.offsets(c, a) = get_real(m.rb_delta.mapped(), a * N + c, m.ff) * s1;
     for (int step = 0; step < k; ++step) {
       AxisStep info;
       info.axis = shape.axes[step];
-      info.volume_before = stat(step, 0);
-      info.share = stat(step, 1);
-      info.sum_squares = stat(step, 2) * wmax;  // in the caller's weights
-      info.max_offset = stat(step, 3);
+      info.volume_before = stat(step, 0) * s3;
+      info.share = stat(step, 1) * s3;
+      info.sum_squares = stat(step, 2) * wmax * s4;  // in the caller's weights
+      info.max_offset = stat(step, 3) * s1;
       res.steps.push_back(info);
     }
   }
@@ -974,7 +988,9 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
     double before = 0, after = 0;
     for (std::uint32_t g = 0; g < m.g_face; ++g) before += get_real(m.rb_red.mapped(), g, m.ff);
     for (std::uint32_t g = 0; g < m.g_face; ++g) after += get_real(m.rb_red.mapped(), kMaxGroups + g, m.ff);
-    if (shape.mode == Shape::DeviceSteps && k > 0) before = stat(0, 0);
+    before *= s3;
+    after *= s3;
+    if (shape.mode == Shape::DeviceSteps && k > 0) before = stat(0, 0) * s3;
     if (shape.mode == Shape::Plain) after = before;
     res.volume_before = before;
     res.volume = after;

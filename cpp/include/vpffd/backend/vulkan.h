@@ -144,9 +144,12 @@ class VulkanDeformer {
   FrameTimings last_timings() const;
   /// Reference point of the device positions (the lattice centre), world units.
   const Vector3d& origin() const;
+  /// Unit of the device positions: the power of two nearest to the lattice's half
+  /// diagonal (keeps every device quantity well inside float32's exponent range).
+  double scale() const;
 
   /// For a renderer on the same VkDevice: the raw VkBuffer handles of the device
-  /// vertex buffer (#V x 3 float32, positions minus origin(), in the device's vertex
+  /// vertex buffer (#V x 3 float32, (positions - origin()) / scale(), in the device's vertex
   /// order) and index buffer (#F x 3 int32 in that order), and that order:
   /// device vertex i is input vertex vertex_order()[i].
   std::uint64_t vertex_buffer_handle() const;
