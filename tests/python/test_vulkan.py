@@ -488,11 +488,12 @@ print("done")
     assert "done" in out.stdout and not problems, problems[:5]
 
 
-@pytest.mark.parametrize("size", [1e-9, 1e9])
+@pytest.mark.parametrize("size", [1e-12, 1e-9, 1e12])
 def test_any_mesh_size(precision, size):
-    # Device lengths are in a power-of-two unit near the lattice size: float-float
-    # (float32's exponent range) would underflow on a 1e-9 mesh (its squared volume
-    # coefficients ~1e-40) and overflow on a 1e9 one without it.
+    # Device lengths are in a power-of-two unit near the lattice size: without it
+    # float-float (float32's exponent range) underflows on a 1e-9 mesh (its squared
+    # volume coefficients ~1e-40: a false "coefficients are all zero") and overflows
+    # on a 1e12 one.
     mesh = vpffd.shapes.icosphere(2, radius=size)
     lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3)
     cpu, gpu = pair(mesh, lat, precision)
