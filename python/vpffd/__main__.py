@@ -1,4 +1,4 @@
-"""The ``vpffd`` command: ``vpffd demo | deform | info | bench`` (``vpffd CMD --help``).
+"""The ``vpffd`` command: ``vpffd demo | deform | info | bench | devices`` (``vpffd CMD --help``).
 
 Errors end the command with one line on stderr, ``vpffd CMD: error: ...``, and
 exit status 2 for bad arguments or 1 for anything else (bad or missing files,
@@ -294,6 +294,34 @@ def _cmd_bench(args) -> int:
     return 0
 
 
+def _cmd_devices(args) -> int:
+    from . import _core, available_backends
+    threads = f" ({os.cpu_count()} cores)" if _core.has_openmp() else ""
+    print("backends, best first: " + ", ".join(b + (threads if b == "openmp" else "") for b in available_backends()))
+    if not getattr(_core, "has_vulkan", False):
+        print("Vulkan: not in this build (it needs libvulkan-dev, glslc and libvulkan-volk-dev at build time)")
+        return 0
+    devices, why = _core.vulkan_devices()
+    if not devices:
+        print(f"Vulkan: no device ({why})")
+        return 0
+    print("Vulkan devices (backend='vulkan', device=INDEX or part of the name):")
+    for d in devices:
+        if not d["suitable"]:
+            use = f"unsuitable: {d['reason']}"
+        else:
+            wanted = os.environ.get("VPFFD_VULKAN_PRECISION") or "auto"
+            sums = "float-float" if wanted == "float-float" or not d["float64"] else "float64"
+            use = f"sums in {sums}" + (" (VPFFD_VULKAN_PRECISION)" if wanted != "auto" else "")
+            if wanted == "float64" and not d["float64"]:
+                use = "VPFFD_VULKAN_PRECISION=float64, but it has no shaderFloat64"
+            if d["type"] == "cpu":
+                use += "; a software device: backend='auto' takes it only when named"
+        print(f"  {d['index']}  {d['name']}  [{d['type']}, {d['memory_bytes'] / 2 ** 30:.1f} GiB, "
+              f"Vulkan {d['api_version']}]  {use}")
+    return 0
+
+
 # --- parser -----------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="vpffd", description="Exact volume-preserving B-spline free-form deformation "
@@ -365,6 +393,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-csr", action="store_true", help="skip the CSR coefficient method")
     p.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
     p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("devices", formatter_class=fmt, help="list the backends and Vulkan devices",
+                       description="Lists the backends this build can run here and the Vulkan devices with "
+                       "what vpffd would do with each.")
+    p.set_defaults(func=_cmd_devices)
     return parser
 
 

@@ -1,6 +1,7 @@
 """The ``vpffd`` command end to end in a temporary folder: files written, exit
 status, and one-line errors (never a traceback) for bad files and arguments."""
 import importlib.util
+import os
 import subprocess
 import sys
 
@@ -279,3 +280,28 @@ def test_demo_rerun_removes_stale_frames(tmp_path):
     for kept in ("frame_9.png", "frame_0024.png", "frame_010.png.bak", "notes.png"):  # not the demo's names
         assert (fdir / kept).read_bytes() == b"old"
     assert not (fdir / "frame_1000.png").exists()
+
+
+def test_devices_lists_backends_and_vulkan(capsys, monkeypatch):
+    monkeypatch.delenv("VPFFD_VULKAN_PRECISION", raising=False)
+    assert main(["devices"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("backends, best first: ") and "serial" in out
+    for d in vpffd.vulkan_devices():
+        assert d["name"] in out
+        if d["suitable"]:
+            assert ("sums in float64" if d["float64"] else "sums in float-float") in out
+    monkeypatch.setenv("VPFFD_VULKAN_PRECISION", "float-float")
+    assert main(["devices"]) == 0
+    if any(d["suitable"] for d in vpffd.vulkan_devices()):
+        assert "sums in float-float (VPFFD_VULKAN_PRECISION)" in capsys.readouterr().out
+
+
+def test_devices_without_a_driver(tmp_path):
+    env = dict(os.environ, VK_DRIVER_FILES=str(tmp_path / "none.json"), VK_ICD_FILENAMES=str(tmp_path / "none.json"))
+    out = subprocess.run([sys.executable, "-m", "vpffd", "devices"], env=env, capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "backends, best first:" in out.stdout and "vulkan" not in out.stdout.splitlines()[0]
+    if vpffd._core.has_vulkan:
+        assert "Vulkan: no device (" in out.stdout
