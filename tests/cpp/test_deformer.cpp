@@ -217,16 +217,44 @@ TEST(Deformer, BadInput) {
 }
 
 TEST(Deformer, ThreadCountDoesNotChangeResults) {
-  const TriMesh m = icosphere(5);  // big enough for several chunks
+  if (!has_openmp()) GTEST_SKIP() << "built without OpenMP";
+  // Above kParallelMin vertices and faces, so the loops really run in parallel.
+  const TriMesh m = icosphere(6);
+  ASSERT_GE(m.V.rows(), kParallelMin);
   const Lattice L = lattice_around(m.V, {8, 8, 8}, 3);
-  Deformer D(m.V, m.F, L);
   const RowMatrixX3d P = twist(squashed(L, 0.5), 1.5, 2, Vector3d::Zero());
-  CorrectionOptions o1, o2;
-  o1.threads = 1;
-  o2.threads = 2;
-  const DeformResult a = D.deform(P, o1), b = D.deform(P, o2);
-  EXPECT_EQ((a.vertices - b.vertices).cwiseAbs().maxCoeff(), 0.0);
-  EXPECT_EQ(a.volume, b.volume);
+  // An open mesh (the cone form) too: the top cap removed.
+  std::vector<Index> keep;
+  for (Index f = 0; f < m.F.rows(); ++f)
+    if (m.V(m.F(f, 0), 2) < 0.8 || m.V(m.F(f, 1), 2) < 0.8 || m.V(m.F(f, 2), 2) < 0.8) keep.push_back(f);
+  RowMatrixX3i Fopen(static_cast<Index>(keep.size()), 3);
+  for (size_t i = 0; i < keep.size(); ++i) Fopen.row(static_cast<Index>(i)) = m.F.row(keep[i]);
+  for (bool open : {false, true}) {
+    Deformer D(m.V, open ? Fopen : m.F, L);
+    for (CoefficientMethod method : {CoefficientMethod::Traversal, CoefficientMethod::Csr}) {
+      if (open && method == CoefficientMethod::Csr) continue;  // the paper's matrix is for closed meshes
+      CorrectionOptions o;
+      o.method = method;
+      o.allow_open = open;
+      o.threads = 1;
+      const DeformResult a = D.deform(P, o);
+      for (int threads : {2, 3}) {
+        o.threads = threads;
+        const DeformResult b = D.deform(P, o);
+        SCOPED_TRACE(::testing::Message() << "open " << open << ", method " << int(method) << ", threads "
+                                          << threads);
+        EXPECT_EQ((a.vertices - b.vertices).cwiseAbs().maxCoeff(), 0.0);
+        EXPECT_EQ((a.offsets - b.offsets).cwiseAbs().maxCoeff(), 0.0);
+        EXPECT_EQ(a.volume, b.volume);
+        ASSERT_EQ(a.steps.size(), b.steps.size());
+        for (size_t s = 0; s < a.steps.size(); ++s) EXPECT_EQ(a.steps[s].sum_squares, b.steps[s].sum_squares);
+      }
+    }
+  }
+  // Repeated axes are refused (rounds repeats the axes; the backends size their steps by it).
+  CorrectionOptions rep;
+  rep.axes = {0, 1, 0};
+  EXPECT_THROW(Deformer(m.V, m.F, L).deform(P, rep), InvalidInputError);
 }
 
 // The pieces of a frame that every backend shares (FramePlan, constraint_steps,

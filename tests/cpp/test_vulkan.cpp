@@ -205,6 +205,11 @@ TEST_P(VulkanP, SameErrorsAsCpu) {
   CorrectionOptions bad_axes;
   bad_axes.axes = {};
   same(bad_axes, P);
+  // Repeated axes: the device sizes its per-step buffers for 3 distinct axes x kMaxRounds.
+  CorrectionOptions repeated;
+  repeated.axes = {0, 0, 0, 0};
+  repeated.rounds = kMaxRounds;
+  same(repeated, P);
   same(CorrectionOptions{}, P.topRows(3));
   RowMatrixX3i Fbad = s.F;
   Fbad(0, 0) = 100000;

@@ -123,8 +123,6 @@ std::vector<VkPhysicalDevice> physical_devices(const Instance& inst) {
 }
 
 // Limits the shaders rely on (see shaders/common.glsl).
-constexpr std::uint32_t kStorageBuffers = 20;
-constexpr std::uint32_t kSharedBytes = 24 * 1024;
 constexpr std::uint32_t kInvocations = 256;
 
 DeviceInfo describe(VkPhysicalDevice p, int index) {
@@ -161,9 +159,9 @@ DeviceInfo describe(VkPhysicalDevice p, int index) {
   const VkPhysicalDeviceLimits& L = props.limits;
   if (props.apiVersion < VK_API_VERSION_1_1) d.reason = "Vulkan " + d.api_version + " < 1.1";
   else if (!compute) d.reason = "no compute queue";
-  else if (L.maxPerStageDescriptorStorageBuffers < kStorageBuffers)
+  else if (L.maxPerStageDescriptorStorageBuffers < kBindings)
     d.reason = vpffd::detail::concat("maxPerStageDescriptorStorageBuffers ", L.maxPerStageDescriptorStorageBuffers,
-                                     " < ", kStorageBuffers);
+                                     " < ", kBindings);
   else if (L.maxComputeSharedMemorySize < kSharedBytes)
     d.reason = vpffd::detail::concat("maxComputeSharedMemorySize ", L.maxComputeSharedMemorySize, " < ", kSharedBytes);
   else if (L.maxComputeWorkGroupInvocations < kInvocations || L.maxComputeWorkGroupSize[0] < kInvocations)

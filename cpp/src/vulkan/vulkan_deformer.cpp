@@ -118,13 +118,12 @@ double get_real(const void* src, size_t i, bool ff) {
 constexpr int FR_TARGET = 0, FR_MAX_INVW = 1, FR_HI = 2, FR_RHS = 8;
 constexpr int CI_NC = 0, CI_PTR = 1, CI_IDX = 2, CI_G = 3, CI_H = 4, CI_BASE = 8;
 constexpr int ST_STEP = 0, ST_STEP_STRIDE = 8;
-constexpr int kMaxRounds = 64;  // as Deformer::deform
-constexpr int kMaxSteps = 3 * kMaxRounds;
+using detail::kBindings;
+constexpr int kMaxSteps = 3 * kMaxRounds;  // distinct axes (Deformer::plan checks) x rounds
 constexpr int ST_SIZE = kMaxSteps * ST_STEP_STRIDE;
 constexpr int kTile = 64;                   // vertices per tile = coef.comp's workgroup size
 constexpr int kGroup = 256;                 // workgroup size of the other passes
 constexpr std::uint32_t kMaxGroups = 1024;  // grid-stride passes: fixed reduction shape (= RED_STRIDE)
-constexpr int kBindings = 22;
 constexpr std::uint32_t kQueries = 3 + kMaxSteps;
 constexpr size_t kMaxRecorded = 4;  // frame command buffers kept, one per options shape
 
@@ -174,6 +173,7 @@ struct VulkanDeformer::Impl {
     bP, bX, bF, bAdjPtr, bAdj, bSpan, bTau, bPoly, bTiles, bPartial, bTileVol, bCombPtr, bComb, bAlpha, bInvW,
     bDelta, bFrame, bConsI, bStats, bRed, bConsD, bWork, kNumBuf
   };
+  static_assert(kNumBuf == int(kBindings), "one binding per device buffer");
   Buffer buf[kNumBuf];
   Buffer up_P, up_invw, up_frame, up_delta, up_cons_i, up_cons_d, rb_delta, rb_stats, rb_red, rb_X;
   // The vertices before the frame now running: a frame whose failure is only known
@@ -232,7 +232,19 @@ struct VulkanDeformer::Impl {
   }
 
   // ---- command helpers --------------------------------------------------------
+  // A submission whose wait failed may still run: its command buffers and the fence
+  // must not be reused before it ends.
+  void settle() {
+    if (!pending) return;
+    const VkResult r = vkWaitForFences(d, 1, &fence, VK_TRUE, 600ull * 1000 * 1000 * 1000);
+    if (r == VK_TIMEOUT) throw DeviceError("vulkan: an earlier submission is still running after 600 s (device hung?)");
+    detail::check(r, "vkWaitForFences");
+    pending = false;
+    detail::check(vkResetFences(d, 1, &fence), "vkResetFences");
+  }
+
   void begin(VkCommandBuffer cb, bool once) {
+    settle();
     detail::check(vkResetCommandBuffer(cb, 0), "vkResetCommandBuffer");
     VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
     bi.flags = once ? VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT : 0;

@@ -48,9 +48,12 @@ struct PointConstraint {
   Vector3d target = Vector3d::Zero();
 };
 
+/// The most `rounds` a frame takes (backends size their per-step buffers by it).
+inline constexpr int kMaxRounds = 64;
+
 struct CorrectionOptions {
   bool preserve_volume = true;
-  std::vector<int> axes{0, 1, 2};  ///< corrections along these axes, in this order
+  std::vector<int> axes{0, 1, 2};  ///< corrections along these distinct axes, in this order
   /// Cycles through `axes` this many times, each step taking an equal share of
   /// the volume still missing. 1 is the paper's method; more rounds spread the
   /// correction evenly between the axes (the paper's x-then-y order favours x),

@@ -318,8 +318,14 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
   FramePlan plan;
   plan.correcting = opt.preserve_volume || !opt.constraints.empty();
   if (plan.correcting) VPFFD_CHECK(!opt.axes.empty(), "deform: axes is empty; name at least one of x, y, z");
-  VPFFD_CHECK(opt.rounds >= 1 && opt.rounds <= 64, "deform: rounds is ", opt.rounds, "; expected 1..64");
-  for (int a : opt.axes) VPFFD_CHECK(a >= 0 && a < 3, "deform: axis ", a, " not in 0..2");
+  VPFFD_CHECK(opt.rounds >= 1 && opt.rounds <= kMaxRounds, "deform: rounds is ", opt.rounds, "; expected 1..",
+              kMaxRounds);
+  for (size_t i = 0; i < opt.axes.size(); ++i) {
+    VPFFD_CHECK(opt.axes[i] >= 0 && opt.axes[i] < 3, "deform: axis ", opt.axes[i], " not in 0..2");
+    for (size_t j = 0; j < i; ++j)
+      VPFFD_CHECK(opt.axes[j] != opt.axes[i], "deform: axes repeats ", axis_name[opt.axes[i]],
+                  "; name each axis once (rounds repeats them)");
+  }
   plan.inv_weight = VectorXd::Ones(N);
   if (opt.weights.size() > 0) {
     VPFFD_CHECK(opt.weights.size() == N, "deform: ", opt.weights.size(), " weights, expected one per control point (",
