@@ -164,7 +164,6 @@ struct VulkanDeformer::Impl {
   Index nv = 0, nf = 0, N = 0, n_tiles = 0;
   int KKK = 0;
   std::uint32_t g_vert = 1, g_face = 1, g_cp = 1, g_tile = 1;
-  std::vector<std::int32_t> order;  // device vertex i is input vertex order[i]
   Vector3d origin;
   double scale = 1.0;  // device lengths = world lengths / scale (a power of two)
 
@@ -353,6 +352,7 @@ struct VulkanDeformer::Impl {
     submit_and_wait();
     const float* x = static_cast<const float*>(rb_X.mapped());
     RowMatrixX3d out(nv, 3);
+    const std::vector<std::int32_t>& order = cpu->processing_order();  // device vertex i is input order[i]
     for (Index i = 0; i < nv; ++i)
       for (int a = 0; a < 3; ++a) out(order[i], a) = double(x[3 * i + a]) * scale + origin[a];
     return out;
@@ -446,7 +446,13 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   const Deformer& c = *cpu;
   const Lattice& L = c.lattice();
   const BasisTables& T = c.tables();
-  const Embedding& E = c.embedding();
+  // The CPU Deformer's processing order (cells), faces and adjacency: a cell's
+  // vertices share their K^3 control points, which the tiles of coef.comp reduce in
+  // shared memory.
+  const std::vector<std::int32_t>& order = c.processing_order();
+  const Embedding& E = c.processing_embedding();
+  const RowMatrixX3i& Fs = c.processing_faces();
+  const VertexFaces& adj = c.processing_adjacency();
   nv = c.n_vertices();
   nf = c.n_faces();
   N = c.n_control_points();
@@ -460,47 +466,15 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   if (nv * 3 >= (Index(1) << 31) || nf * 3 >= (Index(1) << 31))
     throw InvalidInputError("VulkanDeformer: the mesh is too large for 32-bit device indices");
 
-  // Vertices sorted by cell (stable counting sort): a cell's vertices share their
-  // K^3 control points, which the tiles of coef.comp reduce in shared memory.
-  std::vector<std::int32_t> cell(nv);
-  for (Index v = 0; v < nv; ++v) {
-    const int i0 = E.span[0][v] - T.poly[0].degree, j0 = E.span[1][v] - T.poly[1].degree,
-              k0 = E.span[2][v] - T.poly[2].degree;
-    cell[v] = static_cast<std::int32_t>((Index(i0) * dims[1] + j0) * dims[2] + k0);
-  }
-  {
-    std::vector<Index> count(N + 1, 0);
-    for (Index v = 0; v < nv; ++v) ++count[cell[v] + 1];
-    for (Index k = 0; k < N; ++k) count[k + 1] += count[k];
-    order.resize(nv);
-    for (Index v = 0; v < nv; ++v) order[count[cell[v]]++] = static_cast<std::int32_t>(v);
-  }
-  std::vector<std::int32_t> rank(nv);
-  for (Index i = 0; i < nv; ++i) rank[order[i]] = static_cast<std::int32_t>(i);
-
-  // Faces renumbered, then ordered by their lowest vertex for locality.
-  const RowMatrixX3i& F0 = c.faces();
-  std::vector<std::int32_t> forder(nf);
-  std::vector<std::int32_t> fkey(nf);
-  for (Index f = 0; f < nf; ++f) {
-    fkey[f] = std::min({rank[F0(f, 0)], rank[F0(f, 1)], rank[F0(f, 2)]});
-    forder[f] = static_cast<std::int32_t>(f);
-  }
-  std::stable_sort(forder.begin(), forder.end(), [&](std::int32_t a, std::int32_t b) { return fkey[a] < fkey[b]; });
-  RowMatrixX3i Fs(nf, 3);
-  for (Index f = 0; f < nf; ++f)
-    for (int k = 0; k < 3; ++k) Fs(f, k) = rank[F0(forder[f], k)];
-  const VertexFaces adj = vertex_faces(Fs, nv);
-
-  std::vector<std::int32_t> span(3 * nv);
+  std::vector<std::int32_t> span(3 * nv), cell(nv);
   std::vector<float> tau(3 * nv), X0(3 * nv);
   const RowMatrixX3d& V = c.rest_vertices();
   for (Index i = 0; i < nv; ++i) {
-    const Index v = order[i];
+    cell[i] = cell_index(T, E, i);
     for (int a = 0; a < 3; ++a) {
-      span[3 * i + a] = E.span[a][v] - T.poly[a].degree;
-      tau[3 * i + a] = static_cast<float>(E.tau[a][v]);
-      X0[3 * i + a] = static_cast<float>((V(v, a) - origin[a]) / scale);
+      span[3 * i + a] = E.span[a][i] - T.poly[a].degree;
+      tau[3 * i + a] = static_cast<float>(E.tau[a][i]);
+      X0[3 * i + a] = static_cast<float>((V(order[i], a) - origin[a]) / scale);
     }
   }
   std::vector<float> poly;
@@ -514,8 +488,8 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   std::vector<std::int32_t> tiles;
   for (Index i = 0; i < nv;) {
     Index j = i;
-    while (j < nv && j - i < kTile && cell[order[j]] == cell[order[i]]) ++j;
-    tiles.insert(tiles.end(), {static_cast<std::int32_t>(i), static_cast<std::int32_t>(j - i), cell[order[i]], 0});
+    while (j < nv && j - i < kTile && cell[j] == cell[i]) ++j;
+    tiles.insert(tiles.end(), {static_cast<std::int32_t>(i), static_cast<std::int32_t>(j - i), cell[i], 0});
     i = j;
   }
   n_tiles = static_cast<Index>(tiles.size() / 4);
@@ -827,7 +801,7 @@ std::uint64_t VulkanDeformer::vertex_buffer_handle() const {
 std::uint64_t VulkanDeformer::index_buffer_handle() const {
   return reinterpret_cast<std::uint64_t>(impl_->buf[Impl::bF].handle());
 }
-const std::vector<std::int32_t>& VulkanDeformer::vertex_order() const { return impl_->order; }
+const std::vector<std::int32_t>& VulkanDeformer::vertex_order() const { return impl_->cpu->processing_order(); }
 
 RowMatrixX3d VulkanDeformer::vertices() const {
   std::lock_guard<std::mutex> lock(impl_->frame_mutex);

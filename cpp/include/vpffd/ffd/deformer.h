@@ -80,14 +80,14 @@ class Deformer {
     validate_lattice(lattice_);
     tables_ = basis_tables(lattice_);
     {
-      // Frames run in cell order (vertex_order.h); the faces are renumbered to
-      // match but keep their order, so every face sum is the same as unsorted.
+      // Frames run in cell order (vertex_order.h); the faces are renumbered to match
+      // and reordered too (below), so face sums round differently from unsorted ones.
       const Embedding E = embed(lattice_, V_, policy_, threads);
       order_ = cell_order(tables_, E);
       rank_ = inverse_order(order_);
       embedding_ = permute_embedding(E, order_);
     }
-    // Faces follow their first vertex in processing order, so the face pass and
+    // Faces follow their lowest vertex in processing order, so the face pass and
     // the per-vertex face sums stay local too.
     face_order_ = face_order(F_, rank_);
     Fs_.resize(F_.rows(), 3);
@@ -113,7 +113,14 @@ class Deformer {
   /// Per-vertex basis data in the caller's vertex order (a copy).
   Embedding embedding() const { return permute_embedding(embedding_, rank_); }
   /// Processing order of the frames: position -> vertex index (sorted by cell).
+  /// Other backends run in the same order with the three views below.
   const std::vector<std::int32_t>& processing_order() const { return order_; }
+  /// Per-vertex basis data in processing order.
+  const Embedding& processing_embedding() const { return embedding_; }
+  /// Faces in face_processing_order(), numbered by processing position.
+  const RowMatrixX3i& processing_faces() const { return Fs_; }
+  /// Vertex -> faces lists of processing_faces().
+  const VertexFaces& processing_adjacency() const { return adjacency_; }
   const BasisTables& tables() const { return tables_; }
   OutsidePolicy outside_policy() const { return policy_; }
   /// Reference point of the volume sums (the lattice box centre).
