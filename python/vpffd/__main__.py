@@ -106,31 +106,11 @@ def _positive_int(text: str):
     return n
 
 
-def _progress(label: str, total: int) -> Progress:
-    return Progress(label, total)
-
-
-# --- mesh files and pictures (vpffd.io / vpffd.render, optional parts of a build) ---
-def _io():
-    try:
-        from .io import load_mesh, save_mesh
-    except ImportError as e:
-        raise RuntimeError(f"reading and writing mesh files needs vpffd.io, which this build lacks ({e})") from None
-    return load_mesh, save_mesh
-
-
+# --- mesh files and pictures (vpffd.io and vpffd.render raise BackendUnavailableError
+# when the build lacks OpenMesh or Embree) ---------------------------------------------
 def _extension(path: str) -> str:
     name = os.path.basename(path).lower()
     return name.rsplit(".", 1)[-1] if "." in name else ""
-
-
-def _formats() -> tuple:
-    """Extensions save_mesh writes (empty when this build has no mesh I/O)."""
-    try:
-        from .io import FORMATS
-    except ImportError:
-        return ()
-    return tuple(FORMATS)
 
 
 def _load(path: str):
@@ -138,23 +118,19 @@ def _load(path: str):
         raise FileNotFoundError(2, "no such file", path)
     if os.path.isdir(path):
         raise IsADirectoryError(21, "is a folder, not a mesh file", path)
-    return _io()[0](path)
+    from .io import load_mesh
+    return load_mesh(path)
 
 
 def _render_png(path, mesh, lattice, control_points, size):
-    import numpy as np
-    try:
-        from .render import Camera, render, save_png
-    except ImportError as e:
-        raise RuntimeError(f"--render needs vpffd.render, which this build lacks ({e})") from None
-    cam = Camera.framing(np.concatenate([mesh.vertices, control_points.reshape(-1, 3)]), size=size)
-    save_png(path, render(mesh, camera=cam, lattice=lattice, size=size, control_points=control_points))
+    from .render import render, save_png  # framed on the mesh and the control points
+    save_png(path, render(mesh, lattice=lattice, size=size, control_points=control_points))
 
 
 # --- commands ---------------------------------------------------------------------
 def _cmd_demo(args) -> int:
     from .demo import run_demo
-    run_demo(out=args.out, quick=args.quick, render=not args.no_render, size=args.size, progress=_progress)
+    run_demo(out=args.out, quick=args.quick, render=not args.no_render, size=args.size, progress=Progress)
     return 0
 
 
@@ -179,7 +155,7 @@ def _cmd_deform(args) -> int:
     if args.bend is not None and args.toward == args.axis:
         raise _UsageError(f"--bend: --toward {args.toward} must differ from --axis {args.axis} (the axis that bends)")
     ext = _extension(args.output)
-    formats = _formats()
+    from .io import FORMATS as formats  # empty without OpenMesh
     if formats and ext not in formats:
         raise _UsageError(f"OUT: unknown mesh format {ext or '(none)'!r} of {args.output!r}; "
                           f"expected one of {', '.join('.' + f for f in formats)}")
@@ -243,7 +219,8 @@ def _deform(args, bar) -> int:
     ms = 1e3 * (time.perf_counter() - t0)
     out = Mesh(r.vertices, mesh.faces)
     bar(3, 4, "writing")
-    _io()[1](args.output, out)
+    from .io import save_mesh
+    save_mesh(args.output, out)
     bar(4, 4)
     bar.close()
     print(f"{args.input}: {mesh.n_vertices:,} vertices, {mesh.n_faces:,} faces; lattice "
@@ -271,19 +248,13 @@ def _deform(args, bar) -> int:
 
 def _cmd_info(args) -> int:
     mesh = _load(args.mesh)
-    check = getattr(mesh, "check", None)
-    if check is None:
-        raise RuntimeError("mesh checks need Mesh.check, which this build lacks")
-    report = check()
+    report = mesh.check()
     print(f"{args.mesh}: {report}")
     return 0 if report.is_volume else EXIT_ERROR
 
 
 def _cmd_bench(args) -> int:
-    try:
-        from .benchmark import run_benchmark
-    except ImportError as e:
-        raise RuntimeError(f"the benchmark is not part of this build ({e})") from None
+    from .benchmark import run_benchmark
     _check_lattice(args)
     bar = Progress("bench", 1)
     try:

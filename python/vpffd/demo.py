@@ -106,12 +106,9 @@ def bouncing_ball(quick: bool = False) -> Scene:
 # --- rendering -------------------------------------------------------------------
 def _renderer():
     """vpffd.render and Camera, or None when this build has no renderer."""
-    try:
-        from .render import Camera, render
-    except ImportError:
-        return None
     from . import _core
-    return (render, Camera) if getattr(_core, "has_embree", False) else None
+    from .render import Camera, render
+    return (render, Camera) if _core.has_embree else None
 
 
 def _bounds(scene: Scene) -> np.ndarray:

@@ -17,7 +17,8 @@ MeshIOError = _core.MeshIOError
 InvalidInputError = _core.InvalidInputError
 BackendUnavailableError = _core.BackendUnavailableError
 
-FORMATS = ("obj", "off", "ply", "stl", "om")
+#: Extensions load_mesh and save_mesh accept (empty when the build has no OpenMesh).
+FORMATS = tuple(_core.mesh_formats()) if _core.has_openmesh else ()
 
 
 def _path(path, where: str) -> str:
