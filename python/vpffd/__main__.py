@@ -267,12 +267,15 @@ def _cmd_bench(args) -> int:
 
 def _cmd_devices(args) -> int:
     from . import _core, available_backends
-    threads = f" ({os.cpu_count()} cores)" if _core.has_openmp() else ""
-    print("backends, best first: " + ", ".join(b + (threads if b == "openmp" else "") for b in available_backends()))
-    if not getattr(_core, "has_vulkan", False):
+    from .deformer import _requested_precision
+    wanted = _requested_precision()
+    devices, why = _core.vulkan_devices() if _core.has_vulkan else ([], "")
+    threads = f" ({_core.max_threads()} threads)" if _core.has_openmp() else ""
+    print("backends, best first: " + ", ".join(b + (threads if b == "openmp" else "")
+                                               for b in available_backends(devices)))
+    if not _core.has_vulkan:
         print("Vulkan: not in this build (it needs libvulkan-dev, glslc and libvulkan-volk-dev at build time)")
         return 0
-    devices, why = _core.vulkan_devices()
     if not devices:
         print(f"Vulkan: no device ({why})")
         return 0
@@ -281,7 +284,6 @@ def _cmd_devices(args) -> int:
         if not d["suitable"]:
             use = f"unsuitable: {d['reason']}"
         else:
-            wanted = os.environ.get("VPFFD_VULKAN_PRECISION") or "auto"
             sums = "float-float" if wanted == "float-float" or not d["float64"] else "float64"
             use = f"sums in {sums}" + (" (VPFFD_VULKAN_PRECISION)" if wanted != "auto" else "")
             if wanted == "float64" and not d["float64"]:

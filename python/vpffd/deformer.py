@@ -38,7 +38,7 @@ def vulkan_devices() -> list:
     ``driver``, ``float64`` (shaderFloat64; without it the sums are float-float),
     ``suitable`` and, when not, ``reason``.
     Empty when this build has no Vulkan backend or there is no loader or driver."""
-    if not getattr(_core, "has_vulkan", False):
+    if not _core.has_vulkan:
         return []
     devices, _why = _core.vulkan_devices()
     return list(devices)
@@ -51,20 +51,30 @@ def _hardware_vulkan_device():
     return str(ok[0]["index"]) if ok else None
 
 
-def available_backends() -> list:
+def available_backends(devices=None) -> list:
     """Backends this build can run here, best first for ``backend='auto'``.
     "vulkan" comes first with a GPU, last when the only device is a software one
-    (which ``auto`` does not take unless VPFFD_VULKAN_DEVICE names it)."""
+    (which ``auto`` does not take unless VPFFD_VULKAN_DEVICE names it).
+    ``devices``: a ``vulkan_devices()`` list already at hand (default: listed now)."""
     out = []
     if _core.has_openmp():
         out.append("openmp")
     out.append("serial")
-    devices = [d for d in vulkan_devices() if d["suitable"]]
+    devices = [d for d in (vulkan_devices() if devices is None else devices) if d["suitable"]]
     if any(d["type"] != "cpu" for d in devices):
         out.insert(0, "vulkan")
     elif devices:
         out.append("vulkan")
     return out
+
+
+def _requested_precision(gpu_precision=None) -> str:
+    """The GPU precision asked for: the argument, else VPFFD_VULKAN_PRECISION, else "auto"."""
+    precision = gpu_precision if gpu_precision is not None else os.environ.get(_PRECISION_ENV) or "auto"
+    if precision not in _PRECISIONS:
+        where = "gpu_precision" if gpu_precision is not None else _PRECISION_ENV
+        raise InvalidInputError(f"{where}: expected one of {', '.join(map(repr, _PRECISIONS))}, got {precision!r}")
+    return precision
 
 
 def _resolve_backend(backend: str, threads, device=None, n_vertices=None):
@@ -80,7 +90,7 @@ def _resolve_backend(backend: str, threads, device=None, n_vertices=None):
         # A GPU when there is one and the mesh is large enough (size first: listing the
         # devices starts Vulkan); a software device only when named.
         large = n_vertices is None or n_vertices >= AUTO_GPU_MIN_VERTICES
-        has_vulkan = getattr(_core, "has_vulkan", False)
+        has_vulkan = _core.has_vulkan
         gpu = _hardware_vulkan_device() if has_vulkan and large and not (selector or env) else None
         if has_vulkan and (selector or env):
             backend = "vulkan"
@@ -93,7 +103,7 @@ def _resolve_backend(backend: str, threads, device=None, n_vertices=None):
         raise InvalidInputError(f"backend: unknown backend {backend!r}; known: {known}")
     if backend == "openmp" and not _core.has_openmp():
         raise BackendUnavailableError("backend 'openmp': this build has no OpenMP")
-    if backend == "vulkan" and not getattr(_core, "has_vulkan", False):
+    if backend == "vulkan" and not _core.has_vulkan:
         raise BackendUnavailableError("backend 'vulkan': this build has no Vulkan backend (it needs libvulkan-dev, "
                                       "glslc and libvulkan-volk-dev at build time)")
     if backend != "vulkan" and selector is not None:
@@ -173,8 +183,8 @@ class Deformer:
         least ``AUTO_GPU_MIN_VERTICES`` (20,000) vertices, else the CPU (a named
         ``device`` is always used); ``available_backends()`` lists them.
         "vulkan" runs every frame on the device (float32 positions, float64 or
-        float-float sums: vertices within ~1e-7 of the lattice size of the CPU's,
-        volume exact to ~1e-9) and raises BackendUnavailableError saying why when
+        float-float sums; tested: vertices within 1e-6 of the lattice box diagonal
+        of the CPU's, corrected volume within 2e-8 relative) and raises BackendUnavailableError saying why when
         there is no suitable device.
     outside : {"error", "extrapolate"}
         vertices outside the lattice box raise (default) or follow the boundary
@@ -197,11 +207,7 @@ class Deformer:
                  device=None, gpu_precision=None):
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice: expected a vpffd.Lattice, got {type(lattice).__name__}")
-        precision = gpu_precision if gpu_precision is not None else os.environ.get(_PRECISION_ENV) or "auto"
-        if precision not in _PRECISIONS:
-            where = "gpu_precision" if gpu_precision is not None else _PRECISION_ENV
-            raise InvalidInputError(f"{where}: expected one of {', '.join(map(repr, _PRECISIONS))}, "
-                                    f"got {precision!r}")
+        precision = _requested_precision(gpu_precision)
         self.mesh = Mesh.from_any(mesh)
         self.lattice = lattice
         self.backend, self._threads, selector = _resolve_backend(backend, threads, device, self.mesh.n_vertices)

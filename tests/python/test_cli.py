@@ -296,6 +296,9 @@ def test_devices_lists_backends_and_vulkan(capsys, monkeypatch):
     assert main(["devices"]) == 0
     if any(d["suitable"] for d in vpffd.vulkan_devices()):
         assert "sums in float-float (VPFFD_VULKAN_PRECISION)" in capsys.readouterr().out
+    monkeypatch.setenv("VPFFD_VULKAN_PRECISION", "bogus")  # refused as Deformer refuses it
+    assert main(["devices"]) == 1
+    assert "VPFFD_VULKAN_PRECISION: expected one of" in capsys.readouterr().err
 
 
 def test_devices_without_a_driver(tmp_path):

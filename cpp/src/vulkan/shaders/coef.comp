@@ -9,8 +9,9 @@
 // workgroup reduces them in shared memory (each invocation owns a control point and
 // sums the tile's vertices in a fixed order) and writes one partial row per tile;
 // `combine` then adds the rows of each control point in tile order. The result is
-// the same on every run and every device, which float atomics would not give (and
-// float64 atomics are rare).
+// the same on every run on a device (tested), which float atomics would not give
+// (and float64 atomics are rare); devices may still differ in how they fuse the
+// float32 basis arithmetic.
 #include "common.glsl"
 layout(local_size_x = 64) in;
 
