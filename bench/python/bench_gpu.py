@@ -49,9 +49,9 @@ import numpy as np
 
 import vpffd
 
+from vpffd.benchmark import SHARED_MESHES, frame_edit as edit, median_ms
+
 ROOT = Path(__file__).resolve().parents[2]
-# VPFFD_SHARED_MESHES: where the meshes are on a machine without ../shared (a GPU machine).
-SHARED_MESHES = Path(os.environ.get("VPFFD_SHARED_MESHES") or ROOT.parent / "shared" / "data" / "meshes")
 
 
 def read_ply(path):
@@ -61,6 +61,14 @@ def read_ply(path):
     raw = (gzip.open if str(path).endswith(".gz") else open)(path, "rb").read()
     end = raw.index(b"end_header\n") + len(b"end_header\n")
     header = raw[:end].decode("ascii").splitlines()
+    # Only the layout this reader handles; anything else would be misread silently.
+    layout = [h.split() for h in header if h.split()[:1] in (["format"], ["element"], ["property"])]
+    want = [["format", "binary_little_endian", "1.0"], ["element", "vertex"], ["property", "float", "x"],
+            ["property", "float", "y"], ["property", "float", "z"], ["element", "face"],
+            ["property", "list", "uchar", "int"]]
+    if len(layout) != len(want) or any(h[:len(w)] != w for h, w in zip(layout, want)):
+        raise ValueError(f"{path}: read_ply takes binary little-endian PLY with float x, y, z and "
+                         "'list uchar int' faces only")
     nv = next(int(h.split()[2]) for h in header if h.startswith("element vertex"))
     nf = next(int(h.split()[2]) for h in header if h.startswith("element face"))
     V = np.frombuffer(raw, dtype="<f4", count=3 * nv, offset=end).reshape(nv, 3).astype(np.float64)
@@ -86,25 +94,10 @@ def meshes(max_vertices):
         yield name, mesh
 
 
-def edit(lat):
-    """A twist plus a squash: changes the volume by about 20 %."""
-    P = vpffd.edits.twist(lat.rest_points, 0.6, axis="z")
-    return vpffd.edits.squash(P, 0.8, axis="z")
-
-
-def median_ms(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append((time.perf_counter() - t0) * 1e3)
-    return statistics.median(times)
-
-
 def bench_mesh(name, mesh, args):
     lat = vpffd.Lattice.around(mesh, shape=args.shape, degree=args.degree)
     P = edit(lat)
-    cpu = vpffd.Deformer(mesh, lat, backend="openmp" if "openmp" in vpffd.available_backends() else "serial")
+    cpu = vpffd.Deformer(mesh, lat, backend="openmp" if vpffd._core.has_openmp() else "serial")
     gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=args.device, gpu_precision=args.precision)
     r = args.repeats
     cpu.deform(P)  # warm caches
@@ -143,8 +136,8 @@ def bench_mesh(name, mesh, args):
         gpu_xyz_ms=med(t["gpu_total_ms"] for t in gxyz),
         gpu_xyz_e2e_ms=med(e2e),
         gpu_xyz_kept_ms=med(kept),
-        volume_error_gpu=abs(res.volume - res.target_volume) / abs(res.target_volume),
-        volume_error_cpu=abs(ref.volume - ref.target_volume) / abs(ref.target_volume),
+        volume_error_gpu=res.volume_error,
+        volume_error_cpu=ref.volume_error,
         max_vertex_dev_rel=float(np.abs(res.vertices - ref.vertices).max() / diag),
     )
     row["factor"] = row["cpu_xyz_ms"] / row["gpu_xyz_e2e_ms"]
@@ -181,7 +174,7 @@ def bench_scaling(args, device, precision):
                    gpu_xyz_ms=med(t["gpu_total_ms"] for t in gt), gpu_ffd_ms=med(t["gpu_ffd_ms"] for t in gt),
                    gpu_step_ms=med(statistics.mean(t["gpu_steps_ms"]) for t in gt),
                    gpu_xyz_kept_ms=med(kept), gpu_xyz_e2e_ms=med(e2e),
-                   volume_error_gpu=abs(first.volume - first.target_volume) / abs(first.target_volume))
+                   volume_error_gpu=first.volume_error)
         row["ns_per_face"] = row["gpu_xyz_ms"] * 1e6 / faces
         if args.cpu:
             cpu = gpu._d  # the CPU core of the same mesh (all OpenMP threads), no second embedding

@@ -20,10 +20,18 @@ from .io import load_mesh
 from .lattice import Lattice
 from .mesh import Mesh
 
-SHARED_MESHES = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "meshes"
+# VPFFD_SHARED_MESHES: where the meshes are on a machine without ../shared (a GPU machine).
+SHARED_MESHES = Path(os.environ.get("VPFFD_SHARED_MESHES")
+                     or Path(__file__).resolve().parents[2].parent / "shared" / "data" / "meshes")
 
 
-def _median_ms(fn, repeats: int) -> float:
+def frame_edit(lat: Lattice) -> np.ndarray:
+    """The benchmarks' frame: the lattice squashed to 60 % height, then twisted 90°."""
+    return edits.twist(edits.squash(lat.control_points, 0.6), 90)
+
+
+def median_ms(fn, repeats: int) -> float:
+    """Median wall time of fn() over `repeats` runs after one warm-up run, ms."""
     fn()  # warm-up
     t = []
     for _ in range(repeats):
@@ -36,7 +44,7 @@ def _median_ms(fn, repeats: int) -> float:
 def bench_mesh(name: str, mesh: Mesh, shape=(10, 10, 10), degree=3, repeats=7, with_csr=True) -> list:
     """Rows of the table for one mesh (dicts)."""
     lat = Lattice.around(mesh, shape=shape, degree=degree, padding=0.05)
-    P = edits.twist(edits.squash(lat.control_points, 0.6), 90)
+    P = frame_edit(lat)
     rows = []
     threads = [("serial", 1), ("openmp", None)] if _core.has_openmp() else [("serial", 1)]
     nnz = None
@@ -51,14 +59,13 @@ def bench_mesh(name: str, mesh: Mesh, shape=(10, 10, 10), degree=3, repeats=7, w
             elif method == "csr":
                 d.face_matrix_nnz()
             r = d.deform(P, method=method)
-            err = abs(r.volume - r.target_volume) / abs(r.target_volume)
             rows.append(dict(
                 mesh=name, vertices=mesh.n_vertices, faces=mesh.n_faces, lattice="x".join(map(str, shape)),
                 degree=degree, backend=backend, threads=th or _core.max_threads(), method=method,
-                ffd_ms=_median_ms(lambda: d.ffd(P), repeats),
-                one_axis_ms=_median_ms(lambda: d.deform(P, axes="x", method=method), repeats),
-                xyz_ms=_median_ms(lambda: d.deform(P, axes="xyz", method=method), repeats),
-                volume_error=err, bytes_per_vertex=d.bytes_per_vertex,
+                ffd_ms=median_ms(lambda: d.ffd(P), repeats),
+                one_axis_ms=median_ms(lambda: d.deform(P, axes="x", method=method), repeats),
+                xyz_ms=median_ms(lambda: d.deform(P, axes="xyz", method=method), repeats),
+                volume_error=r.volume_error, bytes_per_vertex=d.bytes_per_vertex,
                 csr_nnz=nnz if method == "csr" else None,
                 csr_build_s=build_s if method == "csr" and backend == threads[0][0] else None))
     return rows
