@@ -186,7 +186,10 @@ struct VulkanDeformer::Impl {
   VkShaderModule modules[kPipes] = {};
   VkPipeline pipes[kPipes] = {};
   VkCommandPool cmd_pool = VK_NULL_HANDLE;
-  VkCommandBuffer cmd = VK_NULL_HANDLE;  // one-time work: uploads, read-back of the vertices
+  VkCommandBuffer cmd = VK_NULL_HANDLE;  // one-time work: uploads, restores
+  // Copies the device vertices to rb_X; recorded once, submitted after a frame in the
+  // same vkQueueSubmit (no second wait per frame) or alone by vertices().
+  VkCommandBuffer readback_cb = VK_NULL_HANDLE;
   VkFence fence = VK_NULL_HANDLE;
   VkQueryPool queries = VK_NULL_HANDLE;
 
@@ -343,13 +346,31 @@ struct VulkanDeformer::Impl {
   void create_pipelines(const std::array<std::int32_t, 11>& spec);
 
   // ---- frames (all with frame_mutex held) -----------------------------------------
-  // #V x 3 device vertices in the input order.
+  VkCommandBuffer readback() {
+    if (readback_cb) return readback_cb;
+    rb_X = Buffer(*dev, 12 * nv, Buffer::Readback, "vertices (read-back)");
+    VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    cai.commandPool = cmd_pool;
+    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cai.commandBufferCount = 1;
+    detail::check(vkAllocateCommandBuffers(d, &cai, &readback_cb), "vkAllocateCommandBuffers");
+    begin(readback_cb, false);
+    barrier(readback_cb);
+    copy(readback_cb, buf[bX], rb_X, 12 * nv);
+    host_barrier(readback_cb);
+    detail::check(vkEndCommandBuffer(readback_cb), "vkEndCommandBuffer");
+    return readback_cb;
+  }
+
+  // #V x 3 device vertices in the input order (runs readback() alone).
   RowMatrixX3d read_vertices() {
-    if (!rb_X.handle()) rb_X = Buffer(*dev, 12 * nv, Buffer::Readback, "vertices (read-back)");
-    begin();
-    copy(buf[bX], rb_X, 12 * nv);
-    host_barrier(cmd);
-    submit_and_wait();
+    const VkCommandBuffer cb = readback();
+    submit_and_wait(&cb, 1);
+    return unpack_vertices();
+  }
+
+  // rb_X, filled by readback(), in the input order and world units.
+  RowMatrixX3d unpack_vertices() const {
     const float* x = static_cast<const float*>(rb_X.mapped());
     RowMatrixX3d out(nv, 3);
     const std::vector<std::int32_t>& order = cpu->processing_order();  // device vertex i is input order[i]
@@ -900,8 +921,12 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   // --- submit: [uploads,] the recorded frame ---------------------------------------------
   const Impl::Recorded& rec = m.frame_commands(shape);
   detail::check(vkEndCommandBuffer(m.cmd), "vkEndCommandBuffer");
-  const VkCommandBuffer cbs[2] = {m.cmd, rec.cb};
-  m.submit_and_wait(aux ? cbs : cbs + 1, aux ? 2 : 1);
+  VkCommandBuffer cbs[3];
+  std::uint32_t n_cbs = 0;
+  if (aux) cbs[n_cbs++] = m.cmd;
+  cbs[n_cbs++] = rec.cb;
+  if (read_vertices) cbs[n_cbs++] = m.readback();
+  m.submit_and_wait(cbs, n_cbs);
   if (new_invw && shape.mode == Shape::DeviceSteps) m.invw_uploaded = inv_weight;
 
   FrameTimings tm;
@@ -982,8 +1007,8 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
     res.volume = after;
   }
   res.constraint_error = constraint_error(rows, res.control_points, opt.constraints);
-  // Under the frame's lock: another thread's frame must not slip in before the read-back.
-  if (read_vertices) res.vertices = m.read_vertices();
+  // Under the frame's lock: another thread's frame would overwrite rb_X.
+  if (read_vertices) res.vertices = m.unpack_vertices();
   tm.host_total = ms_since(t_start);
   m.timings = std::move(tm);
   return res;
