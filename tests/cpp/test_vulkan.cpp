@@ -195,7 +195,7 @@ TEST_P(VulkanP, SameErrorsAsCpu) {
   CorrectionOptions all_fixed;  // checked on the host
   all_fixed.fixed.assign(s.L.n_control_points(), 1);
   same(all_fixed, P);
-  CorrectionOptions twice;  // dependent rows: the device's eigenvalue test
+  CorrectionOptions twice;  // dependent constraint rows: the host's check of the block
   PointConstraint pc;
   pc.vertex = 3;
   pc.target = s.V.row(3).transpose();

@@ -397,10 +397,27 @@ def test_failed_frame_leaves_the_last_good_one(precision):
     with pytest.raises(vpffd.SolverError):
         gpu.deform(P, fixed=corner_free)
     assert np.array_equal(gpu._vk.vertices(), good.vertices)
-    # Dependent rows found on the device (the volume row and the constraints).
+    # Dependent rows on the host: two constraints on one point (the frame never runs).
     twice = [(3, mesh.vertices[3] * 1.2 + 0.01), (3, mesh.vertices[3] * 1.2 + 0.01)]
     with pytest.raises(vpffd.SolverError):
         gpu.deform(P, constraints=twice)
+    assert np.array_equal(gpu._vk.vertices(), good.vertices)
+    # Dependent rows only the device finds (after the frame ran): free just one control
+    # point that moves the mesh (p1) and one that touches nothing (the corner); one
+    # constraint on a vertex of p1. The constraint block alone is regular, but the
+    # volume row is a multiple of the constraint row: a zero Schur complement.
+    B = gpu.basis_matrix().tocsc()
+    p1 = int(np.argmax(np.asarray(B.sum(axis=0)).ravel()))
+    only_two = np.ones(lat.n_control_points, bool)
+    only_two[[0, p1]] = False
+    v = int(B[:, p1].nonzero()[0][0])
+    cons = [(v, gpu.ffd(P)[v] + 0.01)]
+    kw = dict(fixed=only_two.reshape(lat.shape), constraints=cons)
+    with pytest.raises(vpffd.SolverError) as cpu_error:
+        vpffd.Deformer(mesh, lat, backend="serial").deform(P, **kw)
+    with pytest.raises(vpffd.SolverError) as gpu_error:
+        gpu.deform(P, **kw)
+    assert str(gpu_error.value) == str(cpu_error.value) and "linearly dependent" in str(gpu_error.value)
     assert np.array_equal(gpu._vk.vertices(), good.vertices)
     after = gpu.deform(P)  # and the next frame is unaffected
     cpu = vpffd.Deformer(mesh, lat, backend="serial").deform(P)
