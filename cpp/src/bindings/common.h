@@ -31,12 +31,6 @@ inline py::tuple csr_to_python(CsrMatrix&& A) {
                         move_vec(std::move(A.indptr)), py::make_tuple(A.rows, A.cols));
 }
 
-/// Copies a CSR matrix into the same tuple (for one kept by the C++ side).
-inline py::tuple csr_copy_to_python(const CsrMatrix& A) {
-  CsrMatrix c = A;
-  return csr_to_python(std::move(c));
-}
-
 /// A DeformResult as the dict that Deformer.deform returns (all backends).
 inline py::dict result_to_python(DeformResult&& r) {
   py::dict d;

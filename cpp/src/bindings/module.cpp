@@ -7,12 +7,11 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "vpffd C++ core: volume-preserving B-spline free-form deformation";
   m.attr("__version__") = VPFFD_VERSION;
 
-  auto base_value = py::register_exception<vpffd::InvalidInputError>(m, "InvalidInputError", PyExc_ValueError);
+  py::register_exception<vpffd::InvalidInputError>(m, "InvalidInputError", PyExc_ValueError);
   py::register_exception<vpffd::SolverError>(m, "SolverError", PyExc_RuntimeError);
   py::register_exception<vpffd::MeshIOError>(m, "MeshIOError", PyExc_OSError);
   py::register_exception<vpffd::BackendUnavailableError>(m, "BackendUnavailableError", PyExc_RuntimeError);
   py::register_exception<vpffd::DeviceError>(m, "DeviceError", PyExc_RuntimeError);
-  (void)base_value;
 
   m.def("has_openmp", &vpffd::has_openmp, "True when the CPU kernels were compiled with OpenMP.");
   m.def("max_threads", [] { return vpffd::resolve_threads(0); }, "Threads the OpenMP backend uses by default.");

@@ -491,7 +491,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   std::vector<float> tau(3 * nv), X0(3 * nv);
   const RowMatrixX3d& V = c.rest_vertices();
   for (Index i = 0; i < nv; ++i) {
-    cell[i] = cell_index(T, E, i);
+    cell[i] = vpffd::detail::cell_index(T, E, i);
     for (int a = 0; a < 3; ++a) {
       span[3 * i + a] = E.span[a][i] - T.poly[a].degree;
       tau[3 * i + a] = static_cast<float>(E.tau[a][i]);

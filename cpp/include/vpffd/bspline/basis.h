@@ -64,7 +64,6 @@ struct SpanPolynomials {
   int degree = 0;
   int first_span = 0;            ///< = degree; spans are first_span .. first_span + n_spans - 1
   int n_spans = 0;               ///< n - degree, empty spans included (never used)
-  std::vector<double> start;     ///< t_s per span
   std::vector<double> inv_width; ///< 1 / (t_{s+1} - t_s) per span, 0 for an empty span
   std::vector<double> coef;      ///< n_spans x (d+1) x (d+1): [span][power q][function r]
 
@@ -81,13 +80,11 @@ inline SpanPolynomials span_polynomials(const std::vector<double>& t, int n, int
   sp.first_span = d;
   sp.n_spans = n - d;
   const int K = d + 1;
-  sp.start.resize(sp.n_spans);
   sp.inv_width.resize(sp.n_spans);
   sp.coef.assign(static_cast<size_t>(sp.n_spans) * K * K, 0.0);
   for (int s = d; s < n; ++s) {
     const int si = s - d;
     const double h = t[s + 1] - t[s];
-    sp.start[si] = t[s];
     sp.inv_width[si] = h > 0 ? 1.0 / h : 0.0;
     if (h <= 0) continue;
     // P[r] holds the polynomial (in tau) of N_{s-p+r, p} for the current degree p.

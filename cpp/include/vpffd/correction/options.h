@@ -24,8 +24,6 @@ inline CoefficientMethod parse_method(const std::string& s) {
   throw InvalidInputError("method: expected 'traversal' or 'csr', got '" + s + "'");
 }
 
-inline const char* method_name(CoefficientMethod m) { return m == CoefficientMethod::Csr ? "csr" : "traversal"; }
-
 /// Axes as indices 0..2 from a string such as "xyz", "xy", "z" or "zx" (order kept).
 /// @throws InvalidInputError for other letters or repeated axes.
 inline std::vector<int> parse_axes(const std::string& s) {

@@ -15,6 +15,13 @@ namespace vpffd::detail {
 inline constexpr int kMaxOrder = kMaxDegree + 1;
 
 /// Basis values of point v along the three axes and the row of its first control point.
+/// The cell of point v: the flat index of its first control point.
+VPFFD_ALWAYS_INLINE std::int32_t cell_index(const BasisTables& T, const Embedding& E, Index v) {
+  const Index i0 = E.span[0][v] - T.poly[0].degree, j0 = E.span[1][v] - T.poly[1].degree,
+              k0 = E.span[2][v] - T.poly[2].degree;
+  return static_cast<std::int32_t>((i0 * T.dims[1] + j0) * T.dims[2] + k0);
+}
+
 // The body of every hot loop: a call per point instead costs ~10% of a frame.
 template <int K>
 VPFFD_ALWAYS_INLINE Index point_basis(const BasisTables& T, const Embedding& E, Index v, double* bu, double* bv, double* bw) {
@@ -28,17 +35,8 @@ VPFFD_ALWAYS_INLINE Index point_basis(const BasisTables& T, const Embedding& E, 
     eval_span(T.poly[1].span_coef(s1), T.order[1], E.tau[1][v], bv);
     eval_span(T.poly[2].span_coef(s2), T.order[2], E.tau[2][v], bw);
   }
-  const int i0 = s0 - T.poly[0].degree, j0 = s1 - T.poly[1].degree, k0 = s2 - T.poly[2].degree;
-  return (Index(i0) * T.dims[1] + j0) * T.dims[2] + k0;
+  return cell_index(T, E, v);
 }
-
-/// Orders used by a kernel instantiated for K (runtime ones when K == 0).
-template <int K>
-struct Orders {
-  int u, v, w;
-  explicit Orders(const BasisTables& T)
-      : u(K > 0 ? K : T.order[0]), v(K > 0 ? K : T.order[1]), w(K > 0 ? K : T.order[2]) {}
-};
 
 /// Calls f(std::integral_constant<int, K>{}) with the uniform order, or K = 0.
 template <class F>

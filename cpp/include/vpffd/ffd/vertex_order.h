@@ -27,19 +27,12 @@ inline std::vector<std::int32_t> counting_sort(const std::vector<std::int32_t>& 
   return order;
 }
 
-/// The cell of point v: the flat index of its first control point.
-inline std::int32_t cell_index(const BasisTables& T, const Embedding& E, Index v) {
-  const Index i0 = E.span[0][v] - T.poly[0].degree, j0 = E.span[1][v] - T.poly[1].degree,
-              k0 = E.span[2][v] - T.poly[2].degree;
-  return static_cast<std::int32_t>((i0 * T.dims[1] + j0) * T.dims[2] + k0);
-}
-
 /// Stable counting sort of the points by their cell.
 /// @returns order: processing position -> original index
 inline std::vector<std::int32_t> cell_order(const BasisTables& T, const Embedding& E) {
   const Index n = E.size();
   std::vector<std::int32_t> cell(n);
-  for (Index v = 0; v < n; ++v) cell[v] = cell_index(T, E, v);
+  for (Index v = 0; v < n; ++v) cell[v] = detail::cell_index(T, E, v);
   return counting_sort(cell, Index(T.dims[0]) * T.dims[1] * T.dims[2]);
 }
 
