@@ -31,8 +31,11 @@ if [ ! -x "$VENV/bin/python" ]; then
   python3 -m venv "$VENV"
 fi
 PY="$VENV/bin/python"
-"$PY" -m pip install -q --upgrade pip >/dev/null
-"$PY" -m pip install -q numpy scipy pytest pybind11 scikit-build-core cmake ninja matplotlib pillow
+# Python packages only when one is missing: a second run needs no network.
+if ! "$PY" -c "import numpy, scipy, pytest, pybind11, scikit_build_core, cmake, ninja, matplotlib, PIL" 2>/dev/null; then
+  "$PY" -m pip install -q --upgrade pip >/dev/null
+  "$PY" -m pip install -q numpy scipy pytest pybind11 scikit-build-core cmake ninja matplotlib pillow
+fi
 # A non-isolated build reuses the build folder between runs (fast rebuilds).
 echo "setup: building vpffd (C++ core, bindings)"
 "$PY" -m pip install -q --no-build-isolation -Cbuild-dir="build/py-${VENV##*/}" -e .
