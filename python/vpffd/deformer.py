@@ -9,7 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core
-from .lattice import Lattice
+from .lattice import Lattice, _check_memory
 from .mesh import Mesh
 
 InvalidInputError = _core.InvalidInputError
@@ -166,6 +166,15 @@ class DeformResult:
         return (self.volume_before - self.rest_volume) / self.rest_volume
 
 
+# Memory a frame needs per control point: the control points in, the offsets and
+# corrected points out (on both sides of the binding), the weights, each axis step's
+# rows, weighted rows, coefficients and offsets, and one coefficient buffer per thread:
+# about 40 doubles. And per vertex, the Deformer's own data (bytes_per_vertex, about 150
+# bytes) plus a frame's positions in processing and caller order and the result (72).
+_FRAME_BYTES_PER_CONTROL_POINT = 320
+_BYTES_PER_VERTEX = 256
+
+
 class Deformer:
     """Deforms ``mesh`` with ``lattice``, keeping its enclosed volume.
 
@@ -183,9 +192,10 @@ class Deformer:
         least ``AUTO_GPU_MIN_VERTICES`` (20,000) vertices, else the CPU (a named
         ``device`` is always used); ``available_backends()`` lists them.
         "vulkan" runs every frame on the device (float32 positions, float64 or
-        float-float sums; tested: vertices within 1e-6 of the lattice box diagonal
-        of the CPU's, corrected volume within 2e-8 relative) and raises BackendUnavailableError saying why when
-        there is no suitable device.
+        float-float sums; worst-case bounds derived from that arithmetic: vertices
+        within about 3e-5 of the lattice box diagonal of the CPU's for cubics, a
+        corrected volume within about 6e-8 relative; typically seen 4e-7 and 7e-9)
+        and raises BackendUnavailableError saying why when there is no suitable device.
     outside : {"error", "extrapolate"}
         vertices outside the lattice box raise (default) or follow the boundary
         polynomial pieces.
@@ -210,6 +220,8 @@ class Deformer:
         precision = _requested_precision(gpu_precision)
         self.mesh = Mesh.from_any(mesh)
         self.lattice = lattice
+        _check_memory(lattice.n_control_points, "Deformer", _FRAME_BYTES_PER_CONTROL_POINT,
+                      _BYTES_PER_VERTEX * self.mesh.n_vertices)
         self.backend, self._threads, selector = _resolve_backend(backend, threads, device, self.mesh.n_vertices)
         self._vk = None
         if self.backend == "vulkan":

@@ -1,6 +1,8 @@
 """Trivariate B-spline lattices."""
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from . import _arrays, _core
@@ -23,6 +25,54 @@ def _triple(x, name, kind=int):
     return tuple(kind(v) for v in x)
 
 
+def _knot_vectors(knots) -> list:
+    if isinstance(knots, (str, bytes)) or not hasattr(knots, "__len__") or len(knots) != 3:
+        raise InvalidInputError("Lattice: knots must be three 1-D sequences (one knot vector per axis)")
+    out = []
+    for a, k in enumerate(knots):
+        try:
+            k = np.asarray(k, dtype=np.float64)
+        except (TypeError, ValueError) as e:
+            raise InvalidInputError(f"Lattice: knots along {'xyz'[a]} are not numbers ({e})") from None
+        if k.ndim != 1:
+            raise InvalidInputError(f"Lattice: knots along {'xyz'[a]} must be 1-D, got shape {k.shape}")
+        out.append(k.tolist())
+    return out
+
+
+# What a lattice of N control points costs: its rest and current points (2 x 24 bytes)
+# and the temporary the rest points are built in (24 bytes).
+_LATTICE_BYTES_PER_POINT = 72
+
+
+def _available_memory() -> int | None:
+    """Bytes the OS says can still be allocated without swapping (Linux), or None."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _check_memory(n_points: int, what: str, bytes_per_point: int, extra_bytes: int = 0) -> None:
+    """Refuses up front, with the figures, work that could not fit in memory
+    (instead of a MemoryError or the OOM killer half-way through)."""
+    need = n_points * bytes_per_point + extra_bytes
+    avail = _available_memory()
+    if avail is not None and need > avail:
+        raise InvalidInputError(
+            f"{what}: {n_points:,} control points need about {need / 2**30:.1f} GiB "
+            f"({bytes_per_point} bytes each"
+            + (f", plus {extra_bytes / 2**30:.1f} GiB for the mesh" if extra_bytes else "")
+            + f"), but only {avail / 2**30:.1f} GiB of memory is available")
+
+
 class Lattice:
     """A trivariate B-spline lattice over an axis-aligned world box.
 
@@ -34,8 +84,9 @@ class Lattice:
     ----------
     box_min, box_max : (3,) float
         world-space corners (units of the mesh).
-    shape : int or (nu, nv, nw)
-        control points per axis, each at least degree + 1.
+    shape : int or (nu, nv, nw), optional
+        control points per axis, each at least degree + 1; default (8, 8, 8), or
+        what the knots give (n = len(knots) - degree - 1) when knots are passed.
     degree : int or (du, dv, dw), 1..5
     knots : None or three 1-D arrays
         knot vectors of n + degree + 1 values (any non-decreasing sequence with
@@ -49,11 +100,21 @@ class Lattice:
         control points of the identity deformation (Greville abscissae).
     """
 
-    def __init__(self, box_min, box_max, shape=(8, 8, 8), degree=3, knots=None):
+    def __init__(self, box_min, box_max, shape=None, degree=3, knots=None):
         box_min = _arrays.vector3(box_min, "Lattice: box_min")
         box_max = _arrays.vector3(box_max, "Lattice: box_max")
-        shape = _triple(shape, "Lattice: shape")
         degree = _triple(degree, "Lattice: degree")
+        if knots is not None:
+            knots = _knot_vectors(knots)
+            from_knots = tuple(len(k) - d - 1 for k, d in zip(knots, degree))
+            if shape is None:
+                shape = from_knots
+            elif _triple(shape, "Lattice: shape") != from_knots:
+                raise InvalidInputError(
+                    f"Lattice: shape {_triple(shape, 'Lattice: shape')} does not match the knots, which give "
+                    f"{from_knots} control points for degree {degree} (n = len(knots) - degree - 1); "
+                    f"pass knots of n + degree + 1 values, or leave shape out")
+        shape = _triple((8, 8, 8) if shape is None else shape, "Lattice: shape")
         for a, (n, d) in enumerate(zip(shape, degree)):
             if not 1 <= d <= 5:
                 raise InvalidInputError(f"Lattice: degree {d} along {'xyz'[a]} not in [1, 5]")
@@ -64,12 +125,9 @@ class Lattice:
         if n_total > _MAX_CONTROL_POINTS:
             raise InvalidInputError(f"Lattice: shape {shape} has {n_total:,} control points; at most "
                                     f"{_MAX_CONTROL_POINTS:,} are supported (each costs 24 bytes per array)")
+        _check_memory(n_total, "Lattice", _LATTICE_BYTES_PER_POINT)
         if knots is None:
             knots = [_core.clamped_uniform_knots(n, d) for n, d in zip(shape, degree)]
-        else:
-            if len(knots) != 3:
-                raise InvalidInputError(f"Lattice: knots must be three vectors, got {len(knots)}")
-            knots = [np.asarray(k, dtype=np.float64).reshape(-1).tolist() for k in knots]
         self._spec = _core.LatticeSpec(list(degree), knots, box_min, box_max)
         self.shape = tuple(self._spec.shape)
         self.degree = degree
@@ -79,7 +137,7 @@ class Lattice:
         self.control_points = rest.copy()
 
     @classmethod
-    def around(cls, points, shape=(8, 8, 8), degree=3, padding=0.05, knots=None) -> "Lattice":
+    def around(cls, points, shape=None, degree=3, padding=0.05, knots=None) -> "Lattice":
         """The identity lattice around the bounding box of ``points`` ((n, 3) or a
         Mesh), enlarged on each side by ``padding`` times the box's extent.
 

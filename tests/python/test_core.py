@@ -307,8 +307,7 @@ def test_weights_scale_free_and_overflow(sphere, lat):
 
 def test_numeric_range_of_lattices_and_points(sphere):
     with pytest.raises(InvalidInputError, match="repeated more than"):
-        vpffd.Lattice([-2] * 3, [2] * 3, shape=(5, 4, 4), degree=3,
-                      knots=[[0, 0, 0, 0, 1, 1, 1, 1, 1], None, None][:1] * 3)
+        vpffd.Lattice([-2] * 3, [2] * 3, degree=3, knots=[[0, 0, 0, 0, 1, 1, 1, 1, 1]] * 3)
     with pytest.raises(InvalidInputError, match="extent"):
         vpffd.Lattice([-1e308] * 3, [1e308] * 3, shape=4)
     with pytest.raises(InvalidInputError, match="extent"):

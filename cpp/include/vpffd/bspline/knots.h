@@ -45,11 +45,15 @@ inline void validate_knots(const std::vector<double>& t, int n, int d, char axis
     if (i > 0) VPFFD_CHECK(t[i] >= t[i - 1], "lattice: knots along ", axis, " decrease at index ", i);
   }
   VPFFD_CHECK(t[d] < t[n], "lattice: empty parameter domain along ", axis, " (t[", d, "] == t[", n, "])");
-  // More than d+1 equal end knots leave a control plane with no influence at all.
-  VPFFD_CHECK(t[d + 1] > t[0], "lattice: the first knot along ", axis, " is repeated more than degree + 1 = ",
-              d + 1, " times");
-  VPFFD_CHECK(t[n - 1] < t[n + d], "lattice: the last knot along ", axis, " is repeated more than degree + 1 = ",
-              d + 1, " times");
+  // The first basis function lives on [t_0, t_{d+1}) and the last on [t_{n-1}, t_{n+d}): each must
+  // reach into the domain [t_d, t_n], or its control plane has no influence at all (more than d+1
+  // equal end knots, or an end knot of the domain repeated inside it).
+  VPFFD_CHECK(t[d + 1] > t[d], "lattice: the first control plane along ", axis,
+              " has no influence (the knot ", t[d], " that starts the domain is repeated more than degree + 1 = ",
+              d + 1, " times, counting the knots before it)");
+  VPFFD_CHECK(t[n - 1] < t[n], "lattice: the last control plane along ", axis,
+              " has no influence (the knot ", t[n], " that ends the domain is repeated more than degree + 1 = ",
+              d + 1, " times, counting the knots after it)");
   for (int i = d + 1; i < n;) {
     int j = i;
     while (j + 1 < n && t[j + 1] == t[i]) ++j;

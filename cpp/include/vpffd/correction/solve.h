@@ -67,13 +67,26 @@ inline VectorXd solve_axis_offsets(const VectorXd* alpha, double volume_rhs, con
     throw SolverError(detail::concat("correction along ", axis,
                                      ": the coefficients or targets overflow double precision (control points, "
                                      "mesh or target volume too large)"));
+  // Scaling a row and its right-hand side by the same power of two changes neither the
+  // minimiser nor any rounding, but keeps the sums of squares below in range: volume
+  // coefficients grow with the square of the mesh's size, and for meshes of size 1e100 or
+  // 1e-100 their squares would overflow or underflow (a "flat" mesh that is not flat).
+  std::vector<int> row_exponent(m, 0);
+  for (int p = 0; p < m; ++p) {
+    const double big = R.row(p).cwiseAbs().maxCoeff();
+    if (big > 0) {
+      row_exponent[p] = std::ilogb(big);
+      R.row(p) *= std::ldexp(1.0, -row_exponent[p]);
+      b[p] = std::ldexp(b[p], -row_exponent[p]);
+    }
+  }
   // Scaling all weights alike does not change the minimiser; scaling them to a
   // largest inverse of 1 keeps the sums below in range whatever the user's units.
   const double wmax = inv_weight.maxCoeff();
   const VectorXd iw = inv_weight / wmax;
   const RowMatrixXd RW = R * iw.asDiagonal();
   const Eigen::MatrixXd G = RW * R.transpose();
-  if (sum_squares) *sum_squares = alpha ? G(0, 0) * wmax : 0.0;
+  if (sum_squares) *sum_squares = alpha ? std::ldexp(G(0, 0) * wmax, 2 * row_exponent[0]) : 0.0;
   for (int p = 0; p < m; ++p) {
     // A zero row means nothing free can move that condition; relative to the
     // row's unweighted norm, so the test does not depend on units.

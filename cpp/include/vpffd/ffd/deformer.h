@@ -97,6 +97,11 @@ class Deformer {
     adjacency_ = vertex_faces(Fs_, V_.rows());
     origin_ = 0.5 * (lattice_.box_min + lattice_.box_max);
     rest_volume_ = signed_volume(V_, F_, origin_, threads);
+    // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
+    // and every volume a frame reports or aims at would be inf or NaN.
+    VPFFD_CHECK(std::isfinite(rest_volume_), "Deformer: the mesh's enclosed volume overflows double precision (",
+                rest_volume_, "; coordinates up to ", V_.cwiseAbs().maxCoeff(),
+                "); scale the mesh to smaller units");
   }
 
   Deformer(const Deformer&) = delete;

@@ -120,8 +120,11 @@ inline Embedding embed(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X
     }
     if (total > 0) {
       const Vector3d x = X.row(first).transpose();
+      const std::string noun = total == 1 ? std::string(what) + " lies"
+                               : std::string(what) == "vertex" ? std::string("vertices lie")
+                                                               : std::string(what) + "s lie";
       throw InvalidInputError(detail::concat(
-          "embed: ", total, " ", what, total > 1 ? "s lie" : " lies", " outside the lattice box [", L.box_min.x(),
+          "embed: ", total, " ", noun, " outside the lattice box [", L.box_min.x(),
           ", ", L.box_max.x(), "] x [", L.box_min.y(), ", ", L.box_max.y(), "] x [", L.box_min.z(), ", ",
           L.box_max.z(), "], the first is ", what, " ", first, " at (", x.x(), ", ", x.y(), ", ", x.z(),
           "); enlarge the lattice (padding) or pass outside='extrapolate'"));

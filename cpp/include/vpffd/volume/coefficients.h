@@ -67,9 +67,15 @@ inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embed
     auto weight = [&](Index v) {
       double w = 0;
       if (cone) {
+        // A face that names v at two corners (a degenerate face, allowed on open
+        // meshes) is listed twice in a row for v: each entry takes the next such corner,
+        // so the two corner weights cancel as they must (the face's cone has no volume).
+        int c = -1;
         for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) {
           const Index f = fa[p];
-          w += nf[3 * f + (F(f, 0) == v ? 0 : F(f, 1) == v ? 1 : 2)];
+          c = (p > ip[v] && fa[p - 1] == f) ? c + 1 : 0;
+          while (F(f, c) != v) ++c;
+          w += nf[3 * f + c];
         }
       } else {
         for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) w += nf[fa[p]];
