@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import mapping
+from . import mapping, rounding
 
 LIVE_KEY = "vpffd"
 BAKE_PREFIX = "vpffd_"
@@ -54,6 +54,7 @@ class Evaluation:
     degree: tuple
     snap: bool                      # the lattice's points must be rewritten to show control_points
     vertices: np.ndarray            # (V, 3) deformed, mesh-local, float64
+    key: np.ndarray                 # (V, 3) float32 shape key to write (see rounding.py)
     result: object                  # vpffd.DeformResult (lattice-local)
     world_scale: float              # |det| from lattice-local volumes to world volumes
     notes: list = field(default_factory=list)
@@ -137,8 +138,8 @@ def state_signature(mesh_obj, settings) -> bytes:
     lat = settings.lattice
     parts = [read_points(lat.data, "co_deform").tobytes(), _matrix(lat.matrix_world).tobytes(),
              _matrix(mesh_obj.matrix_world).tobytes(), len(mesh_obj.data.vertices).to_bytes(8, "little"),
-             repr((settings.preserve_volume, settings.axes, settings.degree, settings.weight_group,
-                   lat.data.points_u, lat.data.points_v, lat.data.points_w)).encode()]
+             repr((settings.preserve_volume, settings.exact_float32, settings.axes, settings.degree,
+                   settings.weight_group, lat.data.points_u, lat.data.points_v, lat.data.points_w)).encode()]
     for t in settings.targets:
         parts.append(repr((t.vertex, None if t.empty is None else tuple(t.empty.matrix_world.translation))).encode())
     return b"".join(parts)
@@ -237,12 +238,18 @@ def evaluate(mesh_obj, settings, cache: Cache | None = None) -> Evaluation:
                      else "certified fold-free" if getattr(rep, "certified", False) else "not certified (undecided cells)")
         except Exception as e:  # a verdict we cannot compute must not hide the deformation itself
             folds = f"fold check failed: {e}"
-    return Evaluation(control_points=P, degree=degree, snap=snap, vertices=mapping.affine(np.linalg.inv(A), r.vertices),
-                      result=r, world_scale=abs(float(np.linalg.det(L[:3, :3]))), notes=notes, folds=folds)
+    Y = mapping.affine(np.linalg.inv(A), r.vertices)
+    if settings.preserve_volume and settings.exact_float32:
+        key = rounding.volume_exact_key(Y, rest.astype(np.float32), tris, rounding.volume(rest, tris))
+    else:
+        key = Y.astype(np.float32)
+    return Evaluation(control_points=P, degree=degree, snap=snap, vertices=Y, key=key, result=r,
+                      world_scale=abs(float(np.linalg.det(L[:3, :3]))), notes=notes, folds=folds)
 
 
 def write_shape_key(mesh_obj, name: str, vertices) -> object:
-    """Writes (V, 3) mesh-local positions into shape key ``name`` (created after a Basis when missing)."""
+    """Writes (V, 3) mesh-local positions (float32 as given, else rounded) into shape key
+    ``name`` (created after a Basis when missing)."""
     if mesh_obj.data.shape_keys is None:
         mesh_obj.shape_key_add(name="Basis", from_mix=False)
     kb = mesh_obj.data.shape_keys.key_blocks.get(name)
@@ -272,6 +279,6 @@ def apply(mesh_obj, settings, ev: Evaluation) -> None:
     """Writes an evaluation: the lattice's points if they had to be rebound, the live key, the panel's figures."""
     if ev.snap:
         write_lattice(settings.lattice, ev)
-    kb = write_shape_key(mesh_obj, LIVE_KEY, ev.vertices)
+    kb = write_shape_key(mesh_obj, LIVE_KEY, ev.key)
     kb.value = 1.0
     write_figures(settings, ev)

@@ -39,6 +39,9 @@ class VPFFD_Settings(bpy.types.PropertyGroup):
                              description="lattice object whose points drive the volume-preserving deformation")
     preserve_volume: BoolProperty(name="Preserve volume", default=True,
                                   description="correct the control points so the enclosed volume stays exact")
+    exact_float32: BoolProperty(name="Exact in float32", default=True,
+                                description="choose the float32 rounding of the result so that the mesh Blender "
+                                            "shows keeps the volume to double precision (else ~1e-8)")
     axes: EnumProperty(name="Axes", items=AXES, default="xyz",
                        description="lattice-local axes the correction may move control points along")
     degree: IntProperty(name="Degree", default=3, min=1, max=5,
@@ -154,7 +157,7 @@ class VPFFD_OT_bake(bpy.types.Operator):
         if keys is not None and keys.key_blocks.get(engine.LIVE_KEY) is not None:
             obj.shape_key_remove(keys.key_blocks[engine.LIVE_KEY])
         for f, ev in zip(frames, evs):
-            kb = engine.write_shape_key(obj, f"{engine.BAKE_PREFIX}{f:04d}", ev.vertices)
+            kb = engine.write_shape_key(obj, f"{engine.BAKE_PREFIX}{f:04d}", ev.key)
             for g, v in ((f - 1, 0.0), (f, 1.0), (f + 1, 0.0)):
                 kb.value = v
                 kb.keyframe_insert("value", frame=g)
@@ -243,6 +246,8 @@ class VPFFD_PT_panel(bpy.types.Panel):
         s = _settings(obj)
         col.prop(s, "lattice")
         col.prop(s, "preserve_volume")
+        if s.preserve_volume:
+            col.prop(s, "exact_float32")
         col.prop(s, "axes")
         col.prop(s, "degree")
         if s.lattice is not None:

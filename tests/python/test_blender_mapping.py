@@ -121,3 +121,50 @@ def test_affine_and_outside(mapping):
     M[:3, 3] = [1, 2, 3]
     assert np.allclose(mapping.affine(M, [[1, 0, 0], [0, 1, 0]]), [[1, 4, 3], [-1, 2, 3]])
     assert mapping.outside_count([[0, 0, 0], [1, 0, 0], [1.0000001, 0, 0]], (-1, -1, -1), (1, 1, 1)) == 1
+
+
+@pytest.fixture(scope="module")
+def rounding():
+    spec = importlib.util.spec_from_file_location("vpffd_blender_rounding", _PATH.parent / "rounding.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_volume_gradient_is_the_derivative(rounding):
+    m = vpffd.shapes.icosphere(2)
+    V, F = m.vertices * [1.3, 0.8, 1.1] + 0.4, m.faces
+    g = rounding.volume_gradient(V, F)
+    assert rounding.volume(V, F) == pytest.approx(m.volume * 1.3 * 0.8 * 1.1, rel=1e-14)
+    h = 1e-6
+    for v, c in ((0, 0), (17, 1), (100, 2)):
+        W = V.copy()
+        W[v, c] += h
+        # V is linear in each single coordinate (a coordinate enters each face term once):
+        # the difference quotient is exact up to cancellation, ~1e-16 * V / h.
+        assert (rounding.volume(W, F) - rounding.volume(V, F)) / h == pytest.approx(g[v, c], abs=1e-8)
+
+
+def test_float32_key_keeps_the_volume_to_double_precision(rounding):
+    """A squashed sphere, corrected by vpffd in float64, written as a float32 shape key:
+    Blender's evaluation (basis + (key - basis) in float32) of the chosen key has the rest
+    volume to 1e-13, where rounding to nearest leaves ~1e-8."""
+    m = vpffd.shapes.icosphere(5)  # 10,242 vertices
+    basis = (m.vertices * [1.5, 1.2, 1.0] + [0.3, -0.2, 0.1]).astype(np.float32)
+    rest = basis.astype(np.float64)
+    lat = vpffd.Lattice.around(rest, shape=(5, 5, 5))
+    lat.control_points = vpffd.squash(lat.control_points, 0.55)
+    r = vpffd.Deformer((rest, m.faces), lat).deform()
+    target = rounding.volume(rest, m.faces)
+    nearest = abs(rounding.volume(rounding.evaluated(r.vertices.astype(np.float32), basis), m.faces) - target)
+    key = rounding.volume_exact_key(r.vertices, basis, m.faces, target)
+    assert key.dtype == np.float32 and key.shape == r.vertices.shape
+    err = abs(rounding.volume(rounding.evaluated(key, basis), m.faces) - target)
+    # What is left: the float64 pairwise sums of 20k face terms (~1e-15 of the volume)
+    # and the smallest one-ulp steps; 1e-13 leaves a wide margin over both.
+    assert err <= 1e-13 * target
+    assert err <= nearest
+    # every coordinate is the nearest float32 or its neighbour
+    near = r.vertices.astype(np.float32)
+    ulps = np.abs(key.astype(np.float64) - near) / np.spacing(np.abs(near))
+    assert ulps.max() <= 1.0
