@@ -217,6 +217,14 @@ def evaluate(mesh_obj, settings, cache: Cache | None = None) -> Evaluation:
             raise Refused(f"target {i + 1} ('{t.empty.name}') names vertex {t.vertex}, but '{mesh_obj.name}' has "
                           f"{len(X)} vertices")
         constraints.append((int(t.vertex), mapping.affine(Linv, np.array(t.empty.matrix_world.translation))[0]))
+    fixed_axes = [a for a in range(3) if "xyz"[a] not in settings.axes]
+    if constraints and fixed_axes:
+        # A vertex can only be pulled along the corrected axes; along the others it
+        # stays where the plain FFD puts it (an empty dragged in the viewport always
+        # moves a little along every axis, if only by float32 rounding).
+        plain = vlat.deform_points(X[[v for v, _ in constraints]], control_points=P)
+        for (_, target), p in zip(constraints, plain):
+            target[fixed_axes] = p[fixed_axes]
 
     key = (mesh_obj.as_pointer(), lat.as_pointer(), shape, degree, A.tobytes(), rest.tobytes(), tris.tobytes())
     deformer = cache.deformer if cache is not None and cache.deformer_key == key else None

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-_MAX_PASSES = 4
+_MAX_PASSES = 8
 _WINDOW = 1024
 
 
@@ -92,13 +92,39 @@ def volume_exact_key(vertices, basis, faces, target_volume) -> np.ndarray:
                 left -= take[n - 1]
             i += n
             i += int(np.searchsorted(-gain_sorted[i:], -left, side="left"))
-        if not chosen:
-            break
         k_flat = k_flat.copy()
-        idx = np.concatenate(chosen)
-        k_flat[idx] = step_key[idx]
+        if chosen and left < 0.5 * abs(R):
+            idx = np.concatenate(chosen)
+            k_flat[idx] = step_key[idx]
+        else:
+            # Single steps overshoot (or only nibble): one coordinate one ulp in the helpful direction
+            # and another one ulp the other way, whose gains differ by about |R|.
+            i, j = _best_pair(gain, np.abs(g * (evaluated(np.nextafter(k_flat, -toward), basis.ravel())
+                                                 .astype(np.float64) - E.astype(np.float64))), abs(R))
+            if i is None:
+                break
+            k_flat[i] = step_key[i]
+            k_flat[j] = np.nextafter(k_flat[j], -toward[j])
         R_new = volume(evaluated(k_flat.reshape(-1, 3), basis), F) - target_volume
         if not abs(R_new) < abs(R):  # second-order effects won: keep the better key
             break
         key, R = k_flat.reshape(-1, 3), R_new
     return key
+
+
+def _best_pair(help_gain, hurt_gain, left):
+    """(i, j): moving coordinate i the helpful way and j (!= i) the other way changes the
+    residual by help_gain[i] - hurt_gain[j]; the pair bringing it closest to ``left``,
+    or (None, None) when no pair lowers it."""
+    order = np.argsort(hurt_gain, kind="stable")
+    hurt = hurt_gain[order]
+    want = help_gain - left  # hurt_gain[j] close to this leaves nothing over
+    pos = np.searchsorted(hurt, want)
+    best, bi, bj = left, None, None
+    for cand in (np.clip(pos - 1, 0, len(hurt) - 1), np.clip(pos, 0, len(hurt) - 1)):
+        miss = np.abs(left - (help_gain - hurt[cand]))
+        miss[order[cand] == np.arange(len(help_gain))] = np.inf
+        i = int(np.argmin(miss))
+        if miss[i] < best:
+            best, bi, bj = miss[i], i, int(order[cand[i]])
+    return bi, bj

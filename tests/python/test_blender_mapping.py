@@ -90,7 +90,7 @@ def test_dragging_a_blender_point_moves_that_control_point(mapping):
 
 
 def test_rebase_keeps_offsets(mapping):
-    shape = (4, 4, 4)
+    shape = (6, 5, 7)
     co = blender_rest_grid(shape, (-0.5,) * 3, (0.5,) * 3)
     lat = vpffd.Lattice(*mapping.lattice_box(co), shape=shape, degree=3)
     shown = mapping.blender_to_grid(co, shape).copy()
@@ -100,7 +100,8 @@ def test_rebase_keeps_offsets(mapping):
     assert np.allclose(delta[1, 2, 3], (0.1, 0.0, -0.05), atol=1e-15)
     delta[1, 2, 3] = 0
     assert np.abs(delta).max() <= 1e-16 * 4
-    # Cubic clamped B-splines: the rest net is not Blender's uniform grid (which is why the add-on rebinds).
+    # Cubic clamped B-splines with more than 4 points: the rest net is not Blender's uniform
+    # grid (which is why the add-on rebinds; with 4 points it is a Bezier net, uniform).
     assert np.abs(lat.rest_points - mapping.blender_to_grid(co, shape)).max() > 0.05
 
 
