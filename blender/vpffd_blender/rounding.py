@@ -69,6 +69,7 @@ def volume_exact_key(vertices, basis, faces, target_volume) -> np.ndarray:
     key = Y.astype(np.float32)
     g = volume_gradient(Y, F).ravel()
     R = volume(evaluated(key, basis), F) - target_volume
+    used = np.zeros(key.size, dtype=bool)  # each coordinate moves at most once: one ulp from nearest
     for _ in range(_MAX_PASSES):
         if R == 0.0:
             break
@@ -78,7 +79,7 @@ def volume_exact_key(vertices, basis, faces, target_volume) -> np.ndarray:
         k_flat = key.ravel()
         step_key = np.nextafter(k_flat, toward)
         d = evaluated(step_key, basis.ravel()).astype(np.float64) - E.astype(np.float64)
-        gain = np.abs(g * d)  # each step lowers |R| by gain (to first order)
+        gain = np.where(used, 0.0, np.abs(g * d))  # each step lowers |R| by gain (to first order)
         order = np.argsort(-gain, kind="stable")
         gain_sorted = gain[order]
         left = abs(R)
@@ -99,16 +100,19 @@ def volume_exact_key(vertices, basis, faces, target_volume) -> np.ndarray:
         else:
             # Single steps overshoot (or only nibble): one coordinate one ulp in the helpful direction
             # and another one ulp the other way, whose gains differ by about |R|.
-            i, j = _best_pair(gain, np.abs(g * (evaluated(np.nextafter(k_flat, -toward), basis.ravel())
-                                                 .astype(np.float64) - E.astype(np.float64))), abs(R))
+            hurt = np.abs(g * (evaluated(np.nextafter(k_flat, -toward), basis.ravel()).astype(np.float64)
+                               - E.astype(np.float64)))
+            i, j = _best_pair(gain, np.where(used, np.inf, hurt), abs(R))
             if i is None:
                 break
             k_flat[i] = step_key[i]
             k_flat[j] = np.nextafter(k_flat[j], -toward[j])
+            idx = np.array([i, j])
         R_new = volume(evaluated(k_flat.reshape(-1, 3), basis), F) - target_volume
         if not abs(R_new) < abs(R):  # second-order effects won: keep the better key
             break
         key, R = k_flat.reshape(-1, 3), R_new
+        used[idx] = True
     return key
 
 
