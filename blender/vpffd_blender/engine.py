@@ -72,6 +72,9 @@ class Cache:
     """What live updates keep between evaluations of one mesh object (runtime only)."""
     deformer_key: tuple = ()
     deformer: object = None
+    topology: tuple = ()
+    tris: np.ndarray = None
+    n_poly: int = 0
     state: bytes = b""
     error: str = ""
 
@@ -86,6 +89,17 @@ def read_points(lattice_data, attr: str) -> np.ndarray:
     return co.astype(np.float64).reshape(-1, 3)
 
 
+def read_rest(mesh_obj) -> np.ndarray:
+    """(V, 3) float64 rest positions: the reference shape key's, else the vertices'."""
+    me = mesh_obj.data
+    co = np.empty(len(me.vertices) * 3, dtype=np.float32)
+    if me.shape_keys is not None and me.shape_keys.reference_key is not None:
+        me.shape_keys.reference_key.points.foreach_get("co", co)
+    else:
+        me.vertices.foreach_get("co", co)
+    return co.astype(np.float64).reshape(-1, 3)
+
+
 def read_mesh(mesh_obj) -> tuple:
     """(rest vertices (V, 3) float64 mesh-local, triangles (T, 3) int32, polygons that were not triangles).
 
@@ -94,19 +108,14 @@ def read_mesh(mesh_obj) -> tuple:
     own triangulation of its polygons (``loop_triangles``), which does not touch
     the mesh data."""
     me = mesh_obj.data
-    n = len(me.vertices)
-    co = np.empty(n * 3, dtype=np.float32)
-    if me.shape_keys is not None and me.shape_keys.reference_key is not None:
-        me.shape_keys.reference_key.points.foreach_get("co", co)
-    else:
-        me.vertices.foreach_get("co", co)
+    rest = read_rest(mesh_obj)
     if hasattr(me, "calc_loop_triangles"):
         me.calc_loop_triangles()
     tris = np.empty(len(me.loop_triangles) * 3, dtype=np.int32)
     me.loop_triangles.foreach_get("vertices", tris)
     sizes = np.empty(len(me.polygons), dtype=np.int32)
     me.polygons.foreach_get("loop_total", sizes)
-    return co.astype(np.float64).reshape(-1, 3), tris.reshape(-1, 3), int(np.count_nonzero(sizes != 3))
+    return rest, tris.reshape(-1, 3), int(np.count_nonzero(sizes != 3))
 
 
 def _group_weights(lattice_obj, name: str, shape) -> np.ndarray:
@@ -145,8 +154,12 @@ def state_signature(mesh_obj, settings) -> bytes:
     return b"".join(parts)
 
 
-def evaluate(mesh_obj, settings, cache: Cache | None = None) -> Evaluation:
-    """Deforms ``mesh_obj`` by ``settings.lattice`` as the panel's settings say. Changes nothing."""
+def evaluate(mesh_obj, settings, cache: Cache | None = None, exact_float32: bool = True) -> Evaluation:
+    """Deforms ``mesh_obj`` by ``settings.lattice`` as the panel's settings say. Changes nothing.
+
+    ``exact_float32=False`` rounds the result to the nearest float32 even when the
+    settings ask for the volume-exact rounding (live updates while dragging: the
+    rounding costs more than the frame on large meshes)."""
     vpffd = import_vpffd()
     lat = _objects(mesh_obj, settings)
     ld = lat.data
@@ -167,7 +180,8 @@ def evaluate(mesh_obj, settings, cache: Cache | None = None) -> Evaluation:
     bound = [int(x) for x in ld.get(BOUND_PROP, [])]
     if len(bound) == 6 and tuple(bound[:3]) == shape:
         snap = tuple(bound[3:]) != degree
-        shown_rest = vlat.rest_points if not snap else vpffd.Lattice(box_min, box_max, shape, tuple(bound[3:])).rest_points
+        shown_rest = (vlat.rest_points if not snap else
+                      vpffd.Lattice(box_min, box_max, shape, tuple(bound[3:])).rest_points)
     else:
         snap, shown_rest = True, mapping.blender_to_grid(rest_co, shape)
     P = shown if not snap else mapping.rebased_points(shown, shown_rest, vlat.rest_points)
@@ -175,7 +189,15 @@ def evaluate(mesh_obj, settings, cache: Cache | None = None) -> Evaluation:
     P = P.astype(np.float32).astype(np.float64)
 
     notes = []
-    rest, tris, n_poly = read_mesh(mesh_obj)
+    me = mesh_obj.data
+    topology = (len(me.vertices), len(me.polygons), len(me.loops))
+    if cache is not None and cache.topology == topology:
+        # Live updates: Blender's triangulation only changes with the topology.
+        rest, tris, n_poly = read_rest(mesh_obj), cache.tris, cache.n_poly
+    else:
+        rest, tris, n_poly = read_mesh(mesh_obj)
+        if cache is not None:
+            cache.topology, cache.tris, cache.n_poly = topology, tris, n_poly
     if len(tris) == 0:
         raise Refused(f"'{mesh_obj.name}' has no faces")
     if n_poly:
@@ -242,12 +264,14 @@ def evaluate(mesh_obj, settings, cache: Cache | None = None) -> Evaluation:
     if hasattr(vpffd, "check_folds"):
         try:
             rep = vpffd.check_folds(vlat, r.control_points)
-            folds = ("folded (the corrected lattice turns the mesh inside out somewhere)" if getattr(rep, "folded", False)
-                     else "certified fold-free" if getattr(rep, "certified", False) else "not certified (undecided cells)")
+            if getattr(rep, "folded", False):
+                folds = "folded (the corrected lattice turns the mesh inside out somewhere)"
+            else:
+                folds = "certified fold-free" if getattr(rep, "certified", False) else "not certified (undecided cells)"
         except Exception as e:  # a verdict we cannot compute must not hide the deformation itself
             folds = f"fold check failed: {e}"
     Y = mapping.affine(np.linalg.inv(A), r.vertices)
-    if settings.preserve_volume and settings.exact_float32:
+    if settings.preserve_volume and settings.exact_float32 and exact_float32:
         key = rounding.volume_exact_key(Y, rest.astype(np.float32), tris, rounding.volume(rest, tris))
     else:
         key = Y.astype(np.float32)

@@ -41,7 +41,8 @@ class VPFFD_Settings(bpy.types.PropertyGroup):
                                   description="correct the control points so the enclosed volume stays exact")
     exact_float32: BoolProperty(name="Exact in float32", default=True,
                                 description="choose the float32 rounding of the result so that the mesh Blender "
-                                            "shows keeps the volume to double precision (else ~1e-8)")
+                                            "shows keeps the volume to double precision (else ~1e-8); done by "
+                                            "the operator and the bake, not by live updates while dragging")
     axes: EnumProperty(name="Axes", items=AXES, default="xyz",
                        description="lattice-local axes the correction may move control points along")
     degree: IntProperty(name="Degree", default=3, min=1, max=5,
@@ -110,7 +111,9 @@ class VPFFD_OT_deform(bpy.types.Operator):
         if s.lattice is None:
             s.lattice = lat
         engine.apply(obj, s, ev)
-        _caches.pop(obj.name_full, None)
+        # What live mode would compute for this state is already there (and exactly rounded):
+        # the next depsgraph update must not overwrite it.
+        _caches.setdefault(obj.name_full, engine.Cache()).state = engine.state_signature(obj, s)
         for n in ev.notes:
             self.report({'INFO'}, n)
         rest, plain, after = ev.volumes
@@ -316,7 +319,7 @@ def update_live(scene) -> int:
             continue
         c.state = state  # also after a refusal: the same input would be refused again
         try:
-            ev = engine.evaluate(obj, s, c)
+            ev = engine.evaluate(obj, s, c, exact_float32=False)
         except engine.Refused as e:
             c.error = str(e)
             continue
