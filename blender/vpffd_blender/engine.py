@@ -215,17 +215,21 @@ def evaluate(mesh_obj, settings, cache: Cache | None = None, exact_float32: bool
         raise Refused(f"the lattice '{lat.name}' does not enclose '{mesh_obj.name}': {out} of {len(X)} vertices lie "
                       "outside it (scale or move the lattice so the whole mesh is inside)")
     X = np.clip(X, box_min, box_max)
-    try:
-        vmesh = vpffd.Mesh(X, tris)
-    except vpffd.InvalidInputError as e:
-        raise Refused(f"'{mesh_obj.name}': {e}") from None
-    if settings.preserve_volume and not vmesh.is_closed:
-        report = vmesh.check()
-        e = vmesh.edge_report()
-        raise Refused(f"'{mesh_obj.name}' is open or non-manifold, so it has no volume to preserve "
-                      f"({e['boundary_edges']} boundary edges, {e['nonmanifold_edges']} non-manifold edges, "
-                      f"{e['misoriented_edges']} inconsistently wound); close it (e.g. Fill Holes) or switch "
-                      f"volume preservation off. {str(report).splitlines()[0] if str(report) else ''}".strip())
+    key = (mesh_obj.as_pointer(), lat.as_pointer(), shape, degree, bool(settings.preserve_volume), A.tobytes(),
+           rest.tobytes(), tris.tobytes())
+    deformer = cache.deformer if cache is not None and cache.deformer_key == key else None
+    if deformer is None:  # a cached Deformer embeds this very mesh: it was checked when built
+        try:
+            vmesh = vpffd.Mesh(X, tris)
+        except vpffd.InvalidInputError as e:
+            raise Refused(f"'{mesh_obj.name}': {e}") from None
+        if settings.preserve_volume and not vmesh.is_closed:
+            report = vmesh.check()
+            e = vmesh.edge_report()
+            raise Refused(f"'{mesh_obj.name}' is open or non-manifold, so it has no volume to preserve "
+                          f"({e['boundary_edges']} boundary edges, {e['nonmanifold_edges']} non-manifold edges, "
+                          f"{e['misoriented_edges']} inconsistently wound); close it (e.g. Fill Holes) or switch "
+                          f"volume preservation off. {str(report).splitlines()[0] if str(report) else ''}".strip())
 
     weights = fixed = None
     if settings.weight_group:
@@ -248,8 +252,6 @@ def evaluate(mesh_obj, settings, cache: Cache | None = None, exact_float32: bool
         for (_, target), p in zip(constraints, plain):
             target[fixed_axes] = p[fixed_axes]
 
-    key = (mesh_obj.as_pointer(), lat.as_pointer(), shape, degree, A.tobytes(), rest.tobytes(), tris.tobytes())
-    deformer = cache.deformer if cache is not None and cache.deformer_key == key else None
     try:
         if deformer is None:
             deformer = vpffd.Deformer(vmesh, vlat)
