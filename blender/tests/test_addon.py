@@ -490,3 +490,39 @@ print("ENABLED", [m.__name__ for m in addon_utils.modules() if m.__name__ == "vp
     assert out.returncode == 0, out.stdout + out.stderr
     assert "ENABLED ['vpffd_blender']" in out.stdout
     assert list((tmp_path / "scripts").rglob("vpffd_blender/__init__.py"))
+
+
+@pytest.mark.skipif(os.environ.get("VPFFD_BLENDER_ZIP") is None, reason="run.sh packs the zip and names it")
+def test_zip_installs_as_an_extension(tmp_path):
+    """The same zip through the extensions system (Get Extensions > Install from Disk, 4.2+)."""
+    code = f"""
+import bpy, addon_utils
+bpy.ops.extensions.package_install_files(filepath={os.environ['VPFFD_BLENDER_ZIP']!r}, repo="user_default",
+                                         enable_on_install=True)
+assert hasattr(bpy.types.Object, "vpffd") and hasattr(bpy.ops.object, "vpffd_lattice")
+print("ENABLED", [m.__name__ for m in addon_utils.modules() if m.__name__.endswith("vpffd_blender")])
+"""
+    env = dict(os.environ, BLENDER_USER_SCRIPTS=str(tmp_path / "scripts"), BLENDER_USER_CONFIG=str(tmp_path / "config"),
+               BLENDER_USER_RESOURCES=str(tmp_path / "resources"), BLENDER_USER_EXTENSIONS=str(tmp_path / "ext"))
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "ENABLED ['bl_ext.user_default.vpffd_blender']" in out.stdout
+
+
+def test_fold_verdict_shown_when_vpffd_has_check_folds(monkeypatch):
+    """vpffd.check_folds(lattice, control_points) is optional; its verdict reaches the panel."""
+    from types import SimpleNamespace
+    seen = []
+
+    def check_folds(lattice, control_points):
+        seen.append((lattice.shape, control_points.shape))
+        return SimpleNamespace(certified=False, folded=True)
+
+    ob, lat = sphere_and_lattice()
+    monkeypatch.setattr(vpffd, "check_folds", check_folds, raising=False)
+    assert bpy.ops.object.vpffd_lattice() == {'FINISHED'}
+    assert seen == [((5, 4, 6), (5, 4, 6, 3))]
+    assert ob.vpffd.fold_verdict.startswith("folded")
+    monkeypatch.setattr(vpffd, "check_folds", lambda lattice, cp: SimpleNamespace(certified=True, folded=False))
+    assert bpy.ops.object.vpffd_lattice() == {'FINISHED'}
+    assert ob.vpffd.fold_verdict == "certified fold-free"
