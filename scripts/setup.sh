@@ -32,9 +32,9 @@ if [ ! -x "$VENV/bin/python" ]; then
 fi
 PY="$VENV/bin/python"
 # Python packages only when one is missing: a second run needs no network.
-if ! "$PY" -c "import numpy, scipy, pytest, pybind11, scikit_build_core, cmake, ninja, matplotlib, PIL" 2>/dev/null; then
+if ! "$PY" -c "import numpy, scipy, pytest, pybind11, scikit_build_core, cmake, ninja, matplotlib, PIL, trimesh" 2>/dev/null; then
   "$PY" -m pip install -q --upgrade pip >/dev/null
-  "$PY" -m pip install -q numpy scipy pytest pybind11 scikit-build-core cmake ninja matplotlib pillow
+  "$PY" -m pip install -q numpy scipy pytest pybind11 scikit-build-core cmake ninja matplotlib pillow trimesh
 fi
 # A non-isolated build reuses the build folder between runs (fast rebuilds).
 echo "setup: building vpffd (C++ core, bindings)"

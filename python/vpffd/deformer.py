@@ -139,6 +139,8 @@ class DeformResult:
     backend, method : str
         the backend and the coefficient method that actually ran ("traversal" on
         "vulkan", whatever was asked).
+    faces : (F, 3) int32 or None
+        the mesh's faces (shared, read-only), so the result is a mesh by itself.
     """
     vertices: np.ndarray
     control_points: np.ndarray
@@ -151,6 +153,19 @@ class DeformResult:
     steps: list = field(default_factory=list)
     backend: str = ""
     method: str = ""
+    faces: np.ndarray = None
+
+    def to_trimesh(self):
+        """The deformed mesh as a ``trimesh.Trimesh`` (vertex order kept; needs trimesh)."""
+        if self.faces is None:
+            raise InvalidInputError("to_trimesh: this result carries no faces")
+        from .interop import to_trimesh
+        return to_trimesh(self.vertices, self.faces)
+
+    def _repr_png_(self):
+        """Jupyter picture of the deformed mesh and its corrected control points, volumes in the caption."""
+        from .notebook import result_png
+        return result_png(self)
 
     @property
     def volume_error(self) -> float:
@@ -388,7 +403,7 @@ class Deformer:
             volume=r["volume"], volume_before=r["volume_before"], target_volume=r["target_volume"],
             rest_volume=rest, constraint_error=r["constraint_error"], steps=r["steps"],
             # The device always runs the traversal: report what ran, not what was asked.
-            backend=self.backend, method="traversal" if self._vk is not None else method)
+            backend=self.backend, method="traversal" if self._vk is not None else method, faces=self.mesh.faces)
 
     @property
     def device(self):

@@ -310,6 +310,12 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
     files = []
     print("vpffd demo: the paper's animations, plain FFD against exact volume preservation per axis restriction",
           file=stream)
+    missing = [(name, what) for name, what, ok in (("Pillow", "frames or GIFs", has_pil or not render),
+                                                    ("matplotlib", "volume plot", has_mpl)) if not ok]
+    if missing:  # say so before minutes of deforming, not only at the end
+        print(f"note: {' and '.join(m[0] for m in missing)} not installed, so no "
+              f"{' and no '.join(m[1] for m in missing)} will be written; "
+              'pip install "vpffd[demo]" brings what the pictures and the plot need', file=stream)
     for s in scenes:
         d = Deformer(s.mesh, s.lattice, backend=backend)
         bar = progress(f"{s.key}: deforming", s.frames * len(VARIANTS)) if progress else None
@@ -333,14 +339,17 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
     secs = time.perf_counter() - t0
     print("", file=stream)
     if not can_render:
-        why = ("rendering switched off" if not render else "Pillow is not installed (pip install pillow)"
-               if not has_pil else "this build has no renderer (vpffd.render needs Embree)")
+        why = ("rendering switched off" if not render else
+               'Pillow is not installed: pip install "vpffd[demo]" (Pillow and matplotlib)'
+               if not has_pil else "this build has no renderer (vpffd.render needs Embree: install libembree-dev "
+               "and rebuild)")
         print(f"no frames or GIFs written: {why}", file=stream)
     else:
         print(f"frames: {', '.join(str(out / s.key) + '/frame_*.png' for s in scenes)}", file=stream)
         print(f"GIFs and key frames: {', '.join(str(out / (s.key + '.gif')) for s in scenes)}, "
               f"{', '.join(str(out / (s.key + '_keyframes.png')) for s in scenes)}", file=stream)
         print("panels from left to right: " + " | ".join(v[1] for v in VARIANTS), file=stream)
-    plot = f"volume plot: {out / 'volume.png'}" if has_mpl else "no volume plot (pip install matplotlib)"
+    plot = (f"volume plot: {out / 'volume.png'}" if has_mpl else
+            'no volume plot: matplotlib is not installed (pip install "vpffd[demo]")')
     print(f"{plot}, numbers: {out / 'volume.csv'}  ({secs:.1f} s)", file=stream)
     return dict(scenes=scenes, files=files, seconds=secs, rendered=can_render)

@@ -220,6 +220,12 @@ class Lattice:
         cp = self.control_points if control_points is None else control_points
         return _arrays.control_points(cp, self.n_control_points, self.shape)
 
+    def _repr_png_(self):
+        """Jupyter picture: the box surface through the current control points, with
+        its volume in the caption; None without Embree."""
+        from .notebook import lattice_png
+        return lattice_png(self)
+
     def __repr__(self) -> str:
         return (f"Lattice(shape={self.shape}, degree={self.degree}, box_min={self.box_min.tolist()}, "
                 f"box_max={self.box_max.tolist()})")

@@ -113,5 +113,16 @@ class Mesh:
         """A new Mesh with every face's winding reversed (normals point the other way)."""
         return Mesh(self._V, self._F[:, ::-1])
 
+    def to_trimesh(self):
+        """A ``trimesh.Trimesh`` with the same vertices and faces in the same order
+        (needs trimesh; ImportError saying so otherwise)."""
+        from .interop import to_trimesh
+        return to_trimesh(self._V, self._F)
+
+    def _repr_png_(self):
+        """Jupyter picture (Embree render, volume in the caption); None without Embree."""
+        from .notebook import mesh_png
+        return mesh_png(self)
+
     def __repr__(self) -> str:
         return f"Mesh({self.n_vertices} vertices, {self.n_faces} faces)"

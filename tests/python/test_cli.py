@@ -309,3 +309,22 @@ def test_devices_without_a_driver(tmp_path):
     assert "backends, best first:" in out.stdout and "vulkan" not in out.stdout.splitlines()[0]
     if vpffd._core.has_vulkan:
         assert "Vulkan: no device (" in out.stdout
+
+
+def test_demo_without_pillow_and_matplotlib_says_what_to_install(tmp_path, monkeypatch):
+    """A plain `pip install .` has neither; the demo must say so up front, not write nothing silently."""
+    import importlib.util
+    import io
+
+    from vpffd.demo import run_demo
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a, **k: None if name in ("PIL", "matplotlib") else real(name, *a, **k))
+    out = io.StringIO()
+    r = run_demo(out=tmp_path, quick=True, stream=out)
+    text = out.getvalue()
+    first = text.index('pip install "vpffd[demo]"')
+    assert first < text.index("Twisting cube")  # before the minutes of deforming
+    assert "no frames or GIFs written" in text and "no volume plot" in text
+    assert not r["rendered"] and not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.gif"))
+    assert (tmp_path / "volume.csv").exists()
