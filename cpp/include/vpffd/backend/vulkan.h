@@ -20,17 +20,19 @@
 /// (positions relative to origin()); weights, coefficients, volumes and offsets are
 /// summed in float64, or, with Precision::FloatFloat (automatic on devices without
 /// shaderFloat64), in float-float pairs of about 48 significant bits made of float32
-/// arithmetic alone (shaders/real.glsl); its range is float32's. The tests (tests/cpp/test_vulkan.cpp, tests/python/test_vulkan.py) require
-/// vertices within 1e-6 of the lattice box diagonal of the CPU backend's and a
-/// corrected volume within 2e-8 relative of the CPU's and of the target (the final
-/// volume is summed in float64 from float32 positions); on lavapipe the largest seen
-/// are 2.8e-7 and 4.2e-9 (meshes of a few hundred vertices; 2e-11 on the dragon).
-/// An uncorrected volume carries the positions' rounding (tests: 1e-6, seen 7.5e-8).
-/// The same tolerances hold for both precisions: the float32 positions dominate. On
-/// lavapipe, over degrees 1-5, axis subsets, weights, constraints and rounds, the
-/// largest seen are 7.0e-9 (volume) and 4.1e-7 (vertices) in both; the dragon's
-/// corrected volume is within 3e-11 (float64) and 9e-12 (float-float) of the
-/// target, where plain float32 sums would leave 4.4e-7.
+/// arithmetic alone (shaders/real.glsl); its range is float32's. How far a result
+/// may be from the CPU backend's follows from that arithmetic, for any correctly
+/// rounding driver (derivation and formulas: tests/python/gpu_bounds.py, used by the
+/// tests in both languages): a vertex coordinate within u (basis + K + 3) max|P - o|
+/// plus, per axis step, u ((basis + K + 3) max|offset| + max|x - o|), with u = 2^-24,
+/// K the control points per vertex (64 for cubics) and `basis` the float32 basis
+/// values' error (a few hundred u for cubics); for a cubic lattice about 3e-5 of the
+/// box diagonal. A corrected volume is measured on the device after each step, so
+/// only the last step's rounding stays: within u sum_v |dV/dx_v,a| (|x_v,a - o_a| + ...),
+/// about u = 6e-8 relative for a convex mesh. These are worst cases; on lavapipe the
+/// largest seen over degrees 1-5, axis subsets, weights, constraints and rounds are
+/// 4.1e-7 of the diagonal and 7.0e-9 relative; the dragon's corrected volume is within
+/// 3e-11 (float64) and 9e-12 (float-float) of the target.
 ///
 /// Threads: deform(), vertices() and last_timings() may be called from several
 /// threads on one deformer; frames run one at a time, and each deform() returns its

@@ -32,9 +32,14 @@ void main() {
       if ((pc.flags & 4) == 0) {
         for (int p = adj_ptr[v]; p < adj_ptr[v + 1]; ++p) w = r_add(w, face_normal(adj_face[p], a));
       } else {
+        // A degenerate face naming v twice is listed twice in a row: each entry takes
+        // the next corner at v (as the CPU's traversal does), so the two weights cancel.
+        int c = -1;
         for (int p = adj_ptr[v]; p < adj_ptr[v + 1]; ++p) {
           const int f = adj_face[p];
-          w = r_add(w, cone_weight(f, F[3 * f] == int(v) ? 0 : F[3 * f + 1] == int(v) ? 1 : 2, a));
+          c = (p > adj_ptr[v] && adj_face[p - 1] == f) ? c + 1 : 0;
+          while (F[3 * f + c] != int(v)) ++c;
+          w = r_add(w, cone_weight(f, c, a));
         }
       }
       w = r_div(w, r_f(6.0));
