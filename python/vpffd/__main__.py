@@ -123,7 +123,7 @@ def _load(path: str):
 
 
 def _render_png(path, mesh, lattice, control_points, size):
-    from .render import render, save_png  # framed on the mesh and the control points
+    from . import render, save_png  # framed on the mesh and the control points
     save_png(path, render(mesh, lattice=lattice, size=size, control_points=control_points))
 
 

@@ -107,7 +107,8 @@ def bouncing_ball(quick: bool = False) -> Scene:
 def _renderer():
     """vpffd.render and Camera, or None when this build has no renderer."""
     from . import _core
-    from .render import Camera, render
+    from .camera import Camera
+    from .rendering import render
     return (render, Camera) if _core.has_embree else None
 
 
@@ -298,7 +299,7 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
     """
     stream = sys.stdout if stream is None else stream
     if render:  # before minutes of deforming, not when the first frame is drawn
-        from .render import _size
+        from .camera import _size
         size = _size(size, "run_demo")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
