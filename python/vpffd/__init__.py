@@ -32,10 +32,11 @@ from .io import load_mesh, save_mesh
 from .normals import deformed_normals, vertex_normals
 # Pictures: vpffd.camera, picking, colormap, rendering and comparison are the
 # modules; their main names are re-exported here (vpffd.render is the function).
-from . import camera, picking, colormap, rendering
+from . import camera, picking, colormap, rendering, comparison
 from .camera import Camera
 from .picking import Hit, Scene, pick, pick_pixel
 from .rendering import render
+from .comparison import guess_up_axis, local_volume_change, render_comparison
 from ._png import save_png, load_png
 from . import animate
 from .animate import run_animation
@@ -48,4 +49,5 @@ __all__ = [
     "InvalidInputError", "SolverError", "MeshIOError", "BackendUnavailableError", "DeviceError",
     "load_mesh", "save_mesh", "MeshCheck", "check", "render", "save_png", "load_png", "Camera", "Hit", "Scene",
     "pick", "pick_pixel", "vertex_normals", "deformed_normals", "normals", "io",
+    "render_comparison", "local_volume_change", "guess_up_axis",
 ]
