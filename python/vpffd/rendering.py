@@ -155,7 +155,7 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
     if cp is not None:
         P = np.ascontiguousarray(cp.reshape(-1, 3))
         L = lattice_lines(cp.shape[:3]) if lines else np.zeros((0, 2), np.int32)
-    scene = _core.RayScene(m.vertices, m.faces)
+    scene = _core.RayScene(m.vertices, m.faces, True)  # one image: a quick BVH build pays
     image, depth = scene.render(camera.eye, camera.target, camera.up, camera.fov, w, h, int(samples),
                                 _color3(background, "background"), _color3(base_color, "base_color"), vc, N, P, L,
                                 _color3(line_color, "line_color"), _color3(point_color, "point_color"),

@@ -345,7 +345,8 @@ struct RayScene::Impl {
   }
 };
 
-RayScene::RayScene(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F)
+RayScene::RayScene(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
+                   bool fast_build)
     : impl_(std::make_unique<Impl>()) {
   validate_mesh(V, F, "RayScene");
   impl_->V = V;
@@ -374,7 +375,7 @@ RayScene::RayScene(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<con
   // Robust traversal: a ray through a shared edge or vertex never slips between
   // the faces (picking on a closed mesh always hits).
   rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
-  rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
+  rtcSetSceneBuildQuality(scene, fast_build ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_MEDIUM);
   RTCGeometry geom = rtcNewGeometry(d.device, RTC_GEOMETRY_TYPE_TRIANGLE);
   throw_if_error("rtcNewGeometry");
   auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,

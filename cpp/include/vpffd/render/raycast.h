@@ -67,8 +67,11 @@ class RayScene {
  public:
   /// @param[in] V  #V x 3 vertex positions
   /// @param[in] F  #F x 3 triangles
+  /// @param[in] fast_build  a quicker, less optimised BVH (Embree's low build quality):
+  ///                        for a scene rendered once, where the build costs more than the rays
   /// @throws InvalidInputError for a bad mesh, DeviceError when Embree fails
-  RayScene(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F);
+  RayScene(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
+           bool fast_build = false);
   ~RayScene();
   RayScene(const RayScene&) = delete;
   RayScene& operator=(const RayScene&) = delete;
