@@ -223,7 +223,7 @@ def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, 
         panel titles (default "rest", "plain FFD", "volume-preserved, <axes>").
     limit : float, optional
         det J at which the colours saturate (and 1 / limit); default: covers
-        99.5 % of the values shown.
+        95 % of the values shown.
 
     Returns
     -------
