@@ -26,19 +26,22 @@ from .deformer import Deformer, DeformResult, available_backends, vulkan_devices
 from .edits import bend, scale, squash, taper, twist
 from .lattice import Lattice
 from .mesh import Mesh
-from . import check, normals, render, io
+from . import check, normals, io
 from .check import MeshCheck
 from .io import load_mesh, save_mesh
 from .normals import deformed_normals, vertex_normals
-from .render import Camera, Hit, Scene, pick, pick_pixel, save_png, load_png
-from .render import render as _render_function
+# Pictures: vpffd.camera, picking, colormap, rendering and comparison are the
+# modules; their main names are re-exported here (vpffd.render is the function).
+from . import camera, picking, colormap, rendering, comparison
+from .camera import Camera
+from .picking import Hit, Scene, pick, pick_pixel
+from .rendering import render
+from .comparison import guess_up_axis, local_volume_change, render_comparison
+from ._png import save_png, load_png
 from . import animate
 from .animate import run_animation
 
 __version__ = _core.__version__
-
-# vpffd.render is both a submodule and the function; the function wins at the top level.
-render = _render_function
 
 __all__ = [
     "Mesh", "Lattice", "Deformer", "DeformResult", "available_backends", "vulkan_devices",
@@ -46,4 +49,5 @@ __all__ = [
     "InvalidInputError", "SolverError", "MeshIOError", "BackendUnavailableError", "DeviceError",
     "load_mesh", "save_mesh", "MeshCheck", "check", "render", "save_png", "load_png", "Camera", "Hit", "Scene",
     "pick", "pick_pixel", "vertex_normals", "deformed_normals", "normals", "io",
+    "render_comparison", "local_volume_change", "guess_up_axis",
 ]

@@ -122,9 +122,9 @@ def _load(path: str):
     return load_mesh(path)
 
 
-def _render_png(path, mesh, lattice, control_points, size):
-    from .render import render, save_png  # framed on the mesh and the control points
-    save_png(path, render(mesh, lattice=lattice, size=size, control_points=control_points))
+def _render_png(path, deformer, result, size, up, lattice_style):
+    from . import render_comparison, save_png  # rest | plain FFD | volume-preserved
+    save_png(path, render_comparison(deformer, result, size=size, up=up, lattice_style=lattice_style))
 
 
 # --- commands ---------------------------------------------------------------------
@@ -142,6 +142,13 @@ def _check_lattice(args) -> None:
                           f"(need at least {args.degree + 1} per axis)")
 
 
+def _default_toward(args) -> None:
+    if args.toward is None:  # the first other axis: "--axis x --bend 30" just works
+        args.toward = "y" if args.axis == "x" else "x"
+    if args.bend is not None and args.toward == args.axis:
+        raise _UsageError(f"--bend: --toward {args.toward} must differ from --axis {args.axis} (the axis that bends)")
+
+
 def _cmd_deform(args) -> int:
     if args.squash is not None and args.squash <= 0:
         raise _UsageError(f"--squash: expected a positive factor, got {args.squash}")
@@ -150,10 +157,10 @@ def _cmd_deform(args) -> int:
     _check_lattice(args)
     if args.padding < 0:
         raise _UsageError(f"--padding: expected a margin >= 0, got {args.padding}")
-    if args.toward is None:  # the first other axis: "--axis x --bend 30" just works
-        args.toward = "y" if args.axis == "x" else "x"
-    if args.bend is not None and args.toward == args.axis:
-        raise _UsageError(f"--bend: --toward {args.toward} must differ from --axis {args.axis} (the axis that bends)")
+    if args.axis is None and args.up is not None:  # edits follow the model's up axis
+        args.axis = args.up
+    if args.axis is not None:
+        _default_toward(args)
     ext = _extension(args.output)
     from .io import FORMATS as formats  # empty without OpenMesh
     if formats and ext not in formats:
@@ -164,7 +171,7 @@ def _cmd_deform(args) -> int:
     if args.size is not None and not args.render:
         raise _UsageError("--size: only applies to the --render picture; add --render PNG or drop --size")
     if args.size is None:
-        args.size = (800, 600)
+        args.size = (1600, 600)
     for path in (args.output, args.render):
         out_dir = os.path.dirname(os.path.abspath(path)) if path else None
         if out_dir and not os.path.isdir(out_dir):
@@ -187,6 +194,14 @@ def _deform(args, bar) -> int:
     from .mesh import Mesh
 
     mesh = _load(args.input)
+    up_note = ""
+    if args.up is None:
+        from .comparison import guess_up_axis
+        args.up, why = guess_up_axis(mesh, args.input)
+        up_note = f"up axis {args.up} (guessed: {why}; --up to change)"
+        if args.axis is None:
+            args.axis = args.up
+            _default_toward(args)
     bar(1, 4, "embedding")
     lat = Lattice.around(mesh, shape=args.lattice, degree=args.degree, padding=args.padding)
     P = np.array(lat.rest_points)
@@ -225,6 +240,8 @@ def _deform(args, bar) -> int:
     bar.close()
     print(f"{args.input}: {mesh.n_vertices:,} vertices, {mesh.n_faces:,} faces; lattice "
           f"{'x'.join(map(str, lat.shape))} degree {args.degree}; {', '.join(done) or 'no edit (identity)'}")
+    if up_note:
+        print(f"  {up_note}")
     if mesh.is_closed:
         rest = r.rest_volume
         plain = f"plain FFD {r.volume_before:.6g} ({100 * (r.volume_before - rest) / rest:+.2f} %)"
@@ -241,7 +258,7 @@ def _deform(args, bar) -> int:
         print(f"  dragged points reached their targets to {r.constraint_error:.1e}")
     print(f"  {r.backend} backend, {ms:.1f} ms; wrote {args.output}")
     if args.render:
-        _render_png(args.render, out, lat, r.control_points, args.size)
+        _render_png(args.render, d, r, args.size, args.up, args.lattice_style)
         print(f"  picture: {args.render}")
     return 0
 
@@ -334,7 +351,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--bend", type=_finite, metavar="DEG", help="bend the --axis extent into an arc of DEG degrees")
     p.add_argument("--taper", type=_finite, metavar="FACTOR", help="scale the top's cross-section by FACTOR")
     p.add_argument("--squash", type=_finite, metavar="FACTOR", help="scale along --axis by FACTOR")
-    p.add_argument("--axis", choices=["x", "y", "z"], default="z", help="axis of the edits")
+    p.add_argument("--axis", choices=["x", "y", "z"], default=None,
+                   help="axis of the edits (default: the up axis, so --squash squashes downwards)")
+    p.add_argument("--up", choices=["x", "y", "z"], default=None,
+                   help="the model's up axis: upwards in the picture and the default --axis (default: guessed "
+                        "from a flat base or the file's convention, and printed)")
     p.add_argument("--toward", choices=["x", "y", "z"],
                    help="direction --bend curves towards (default: x, or y when --axis is x)")
     p.add_argument("--drag", type=_drag, action="append", metavar="X,Y,Z:TX,TY,TZ",
@@ -344,9 +365,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--backend", choices=["auto", "openmp", "serial", "vulkan"], default="auto",
                    help="where frames run (default auto: a GPU for large meshes when there is one; the Vulkan "
                         "device and precision follow VPFFD_VULKAN_DEVICE and VPFFD_VULKAN_PRECISION)")
-    p.add_argument("--render", metavar="PNG", help="also write a picture of the result")
+    p.add_argument("--render", metavar="PNG",
+                   help="also write a picture: rest | plain FFD | volume-preserved, captioned with the volumes, "
+                        "coloured by the local volume change det J")
     p.add_argument("--size", type=_size, default=None, metavar="WxH",
-                   help="--render picture size (default: 800x600; only with --render)")
+                   help="--render picture size (default: 1600x600; only with --render)")
+    p.add_argument("--lattice-style", choices=["none", "faint", "full"], default="faint",
+                   help="the lattice in the --render picture: hidden, thin translucent lines, or lines and "
+                        "control points")
     p.set_defaults(func=_cmd_deform)
 
     p = sub.add_parser("info", formatter_class=fmt, help="check a mesh file (closed, oriented, volume, ...)",

@@ -81,7 +81,7 @@ def twisting_cube(quick: bool = False) -> Scene:
                  cube, lat, anim, frames, key,
                  "paper, Figure 6 (6,146 vertices): 66 % of the volume lost at the last frame without preservation",
                  lambda t: CUBE_TWIST_DEG * t / anim.duration, "twist deg", (1.0, -1.6, 0.9),
-                 dict(point_radius=2.0, hidden_alpha=0.15))
+                 dict(points=False, line_color=(0.30, 0.36, 0.50), line_alpha=0.30, hidden_alpha=0.35))  # the lattice drawn as render_comparison's "faint"
 
 
 def bouncing_ball(quick: bool = False) -> Scene:
@@ -100,14 +100,15 @@ def bouncing_ball(quick: bool = False) -> Scene:
                  ball, lat, anim, frames, key,
                  "paper, Figure 1 (RedBox, 710,322 vertices): 28 %, 51 %, 64 % lost at its frames 25, 30, 35",
                  lambda t: 100 * anim.flattening(t), "flatten %", (1.0, -2.2, 0.45),
-                 dict(points=False, hidden_alpha=0.0, line_color=(0.95, 0.6, 0.5)))  # 512 points would hide it
+                 dict(points=False, line_color=(0.30, 0.36, 0.50), line_alpha=0.30, hidden_alpha=0.35))
 
 
 # --- rendering -------------------------------------------------------------------
 def _renderer():
     """vpffd.render and Camera, or None when this build has no renderer."""
     from . import _core
-    from .render import Camera, render
+    from .camera import Camera
+    from .rendering import render
     return (render, Camera) if _core.has_embree else None
 
 
@@ -135,9 +136,19 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
     the key-frame sheet. Returns the written paths."""
     from PIL import Image
     render, Camera = _renderer()
+    from .comparison import _colour_bar, _font, fit_camera, local_volume_change
+    from .colormap import volume_change_colors, volume_change_limit
     w, h = size
-    cam = Camera.framing(_bounds(scene), direction=scene.view, size=(w, h), margin=1.0)
     keys = list(scene.results)
+    # The same camera for every frame and variant, fitted to all of them (the
+    # meshes fill the panel), and the surface coloured by the local volume
+    # change det J on one scale for the whole animation, as render_comparison.
+    pts = np.concatenate([scene.results[k].vertices[f] for k in keys for f in range(scene.frames)])
+    cam = fit_camera(np.concatenate([pts, _bounds(scene)]), up="z", size=(w, h), direction=scene.view)
+    d = Deformer(scene.mesh, scene.lattice)
+    detj = {k: [local_volume_change(d, scene.results[k].corrected_points[f]) for f in range(scene.frames)]
+            for k in keys}
+    limit = volume_change_limit(np.concatenate([x for k in keys for x in detj[k]]))
     faces = scene.mesh.faces
     fdir = out / scene.key
     fdir.mkdir(parents=True, exist_ok=True)
@@ -155,7 +166,8 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
         for k in keys:
             r = scene.results[k]
             img = render(Mesh(r.vertices[f], faces), camera=cam, lattice=scene.lattice, size=(w, h),
-                         control_points=r.corrected_points[f], **scene.overlay)
+                         control_points=r.corrected_points[f], colors=volume_change_colors(detj[k][f], limit),
+                         samples=2, **scene.overlay)
             if r.preserve:
                 vol = f"volume kept (error {r.volume_change[f]:+.0e})"
             else:
@@ -179,12 +191,20 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
     ms = int(round(1000 * scene.animator.duration / max(scene.frames - 1, 1))) if fps is None else int(1000 / fps)
     pal[0].save(gif_path, save_all=True, append_images=pal[1:], duration=max(ms, 20), loop=0, optimize=False)
     written.append(gif_path)
-    sheet = Image.new("RGB", (w * len(scene.keyframes), h * len(keys)), "white")
+    fs = max(10, int(round(0.045 * h)))
+    bar_h = int(3.0 * fs)
+    sheet = Image.new("RGB", (w * len(scene.keyframes), h * len(keys) + bar_h), "white")
     for i, k in enumerate(keys):
         for j, f in enumerate(scene.keyframes):
             cell = sheet_cells[(k, f)].copy()
             _label(cell, ["", "", f"frame {f}"])
             sheet.paste(cell, (j * w, i * h))
+    from PIL import ImageDraw
+    font, unicode_ok = _font(fs)
+    small, _ = _font(max(9, int(round(0.85 * fs))))
+    folds = sum(int((x <= 0).sum()) for k in keys for f, x in enumerate(detj[k]) if f in scene.keyframes)
+    _colour_bar(ImageDraw.Draw(sheet), sheet, sheet.width, h * len(keys), bar_h, fs, font, small, limit, folds,
+                unicode_ok)
     sheet_path = out / f"{scene.key}_keyframes.png"
     sheet.save(sheet_path)
     written.append(sheet_path)
@@ -298,7 +318,7 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
     """
     stream = sys.stdout if stream is None else stream
     if render:  # before minutes of deforming, not when the first frame is drawn
-        from .render import _size
+        from .camera import _size
         size = _size(size, "run_demo")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -112,7 +112,7 @@ def test_bad_arguments_exit_2_with_one_line(args, fragment, capsys):
 def test_bad_values_after_parsing_exit_2(tmp_path, capsys):
     src = _write_obj(tmp_path / "ball.obj", shapes.icosphere(1))
     for extra in (["--squash", "0"], ["--lattice", "3x3x3"], ["--render", "x.jpg"], ["--padding", "-0.5"],
-                  ["--bend", "30", "--toward", "z"], ["--axis", "x", "--bend", "30", "--toward", "x"]):
+                  ["--up", "z", "--bend", "30", "--toward", "z"], ["--axis", "x", "--bend", "30", "--toward", "x"]):
         assert main(["deform", str(src), str(tmp_path / "o.obj"), *extra]) == 2, extra
         _one_line_error(capsys.readouterr().err, "vpffd deform")
     assert not (tmp_path / "o.obj").exists()
@@ -155,7 +155,7 @@ def test_deform_end_to_end(tmp_path):
     ball = shapes.icosphere(3)
     src = _write_obj(tmp_path / "ball.obj", ball)
     status, stdout, stderr = _run("deform", src, "out.obj", "--lattice", "6x6x6", "--squash", "0.5",
-                                  "--twist", "90", "--preserve", "xy", cwd=tmp_path)
+                                  "--twist", "90", "--preserve", "xy", "--up", "z", cwd=tmp_path)
     assert status == 0, stderr
     assert "plain FFD" in stdout and "-" in stdout
     out = vpffd.load_mesh(tmp_path / "out.obj")

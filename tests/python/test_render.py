@@ -130,9 +130,27 @@ def test_golden_image():
     ref = vpffd.load_png(GOLDEN)
     assert ref.shape == img.shape
     diff = np.abs(img.astype(int) - ref.astype(int))
-    # Float rounding in the ray traversal may move single silhouette pixels.
+    # The image is Embree float32 work, so another CPU's or compiler's rounding
+    # (FMA, AVX2 vs AVX-512 traversal) may flip a sample ray that passes within
+    # float32 error (~1e-6 of the scene, ~1e-4 pixel) of a silhouette, or a
+    # lattice pixel whose depth test is that close. With 4 samples a flip changes
+    # a pixel by at most 255 / 4 = 64 per channel, so it is not caught by
+    # shading tolerances; it can happen only on the ~600 outline pixels, each
+    # with odds ~1e-4. Allowed: 1 % of the 19,200 pixels (192) differing by more
+    # than 40, and a mean difference below 1 (192 * 64 / 19,200 = 0.64 plus
+    # shading rounding of at most 1 level per pixel from float shading terms).
     assert diff.mean() < 1.0
     assert (diff.max(axis=2) > 40).mean() < 0.01
+    # Away from outlines (no flip can reach there) shading differs by rounding only:
+    # a pixel whose 3x3 neighbourhood is uniform in the reference is within 2 levels.
+    r = ref.astype(int)
+    pad = np.pad(r, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    flat = np.ones(r.shape[:2], bool)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            flat &= (np.abs(pad[1 + dy:1 + dy + r.shape[0], 1 + dx:1 + dx + r.shape[1]] - r) <= 6).all(axis=2)
+    assert flat.mean() > 0.5
+    assert diff.max(axis=2)[flat].max() <= 2
 
 
 def test_png_round_trip(tmp_path):
@@ -217,7 +235,7 @@ def test_camera_framing_and_project_bad_arguments(sphere):
 
 
 def test_colormap_ranges():
-    from vpffd.render import colormap
+    from vpffd.colormap import colormap
     assert colormap([]).shape == (0, 3)
     for kw in (dict(vmin=np.nan), dict(vmax=np.inf), dict(vmin=2.0, vmax=0.0)):
         with pytest.raises(vpffd.InvalidInputError):

@@ -27,7 +27,7 @@ void bind_embree(py::module_& m) {
       py::arg("x"), py::arg("y"), "Unit direction of the ray through the centre of pixel (x, y).");
 
   py::class_<RayScene>(m, "RayScene", "A triangle mesh in an Embree scene (picking, rendering).")
-      .def(py::init<RefV, RefF>(), py::arg("vertices"), py::arg("faces"))
+      .def(py::init<RefV, RefF, bool>(), py::arg("vertices"), py::arg("faces"), py::arg("fast_build") = false)
       .def_property_readonly("n_vertices", &RayScene::n_vertices)
       .def_property_readonly("n_faces", &RayScene::n_faces)
       .def(
@@ -67,7 +67,8 @@ void bind_embree(py::module_& m) {
              std::optional<RowMatrixX3d> colors, std::optional<RowMatrixX3d> normals,
              std::optional<RowMatrixX3d> points,
              std::optional<Eigen::Matrix<std::int32_t, Eigen::Dynamic, 2, Eigen::RowMajor>> lines,
-             const Vector3d& line_color, const Vector3d& point_color, double point_radius, double hidden_alpha) {
+             const Vector3d& line_color, const Vector3d& point_color, double point_radius, double hidden_alpha,
+             double line_alpha, double line_width, bool adaptive) {
             RenderOptions o;
             o.width = width;
             o.height = height;
@@ -82,6 +83,9 @@ void bind_embree(py::module_& m) {
             o.point_color = point_color;
             o.point_radius = point_radius;
             o.hidden_alpha = hidden_alpha;
+            o.line_alpha = line_alpha;
+            o.line_width = line_width;
+            o.adaptive = adaptive;
             const RenderCamera cam = make_camera(eye, target, up, fov);
             auto* img = new std::vector<std::uint8_t>();
             auto* depth = new std::vector<float>();
@@ -105,7 +109,8 @@ void bind_embree(py::module_& m) {
           py::arg("base_color") = Vector3d(0.72, 0.74, 0.78), py::arg("colors") = py::none(),
           py::arg("normals") = py::none(), py::arg("points") = py::none(), py::arg("lines") = py::none(),
           py::arg("line_color") = Vector3d(0.85, 0.25, 0.15), py::arg("point_color") = Vector3d(0.1, 0.2, 0.8),
-          py::arg("point_radius") = 3.0, py::arg("hidden_alpha") = 0.25,
+          py::arg("point_radius") = 3.0, py::arg("hidden_alpha") = 0.25, py::arg("line_alpha") = 1.0,
+          py::arg("line_width") = 1.0, py::arg("adaptive") = true,
           "(image (H, W, 3) uint8, depth (H, W) float32 distances, inf on the background).");
 }
 

@@ -5,8 +5,11 @@
 /// per-vertex colours and a lattice overlay (lines and points).
 ///
 /// This header has no Embree include (pimpl); the implementation is in cpp/src/embree.
-/// Embree works in float32: hits are found in float, and the hit point is then
-/// recomputed in double from the face's corners and the barycentric coordinates.
+/// Embree works in float32 on a normalised copy of the mesh (centred, scaled by a
+/// power of two into [-1, 1]^3), so any mesh whose bounding box fits the double
+/// range can be ray cast. Embree finds the face; the hit is then recomputed in
+/// double (Moeller-Trumbore on the double triangle): point, distance and
+/// barycentrics are double precision, the barycentrics in [0, 1].
 
 #include <cstdint>
 #include <memory>
@@ -34,7 +37,7 @@ Vector3d camera_ray(const RenderCamera& cam, int width, int height, double x, do
 struct RayHit {
   bool hit = false;
   Index face = -1;        ///< hit triangle
-  double u = 0, v = 0;    ///< barycentric weights of the face's corners 1 and 2 (corner 0: 1 - u - v)
+  double u = 0, v = 0;    ///< barycentric weights of the face's corners 1 and 2 (corner 0: 1 - u - v), all in [0, 1]
   double distance = 0;    ///< along the (normalised) ray direction, world units
   Vector3d point = Vector3d::Zero();  ///< (1-u-v) p0 + u p1 + v p2, in double
 };
@@ -43,6 +46,7 @@ struct RayHit {
 struct RenderOptions {
   int width = 800, height = 600;
   int samples = 1;  ///< supersampling per axis (1: none, 2: 4 rays per pixel, ...)
+  bool adaptive = true;  ///< supersample only pixels next to an edge (silhouette, depth or colour step)
   Vector3d background{1.0, 1.0, 1.0};  ///< RGB in [0, 1]
   Vector3d base_color{0.72, 0.74, 0.78};  ///< surface colour without vertex colours
   RowMatrixX3d vertex_colors;  ///< #V x 3 RGB in [0, 1], or 0 rows
@@ -52,7 +56,9 @@ struct RenderOptions {
   Vector3d line_color{0.85, 0.25, 0.15};
   Vector3d point_color{0.1, 0.2, 0.8};
   double point_radius = 3.0;   ///< pixels
-  double hidden_alpha = 0.25;  ///< opacity of overlay parts behind the surface (0: hide them)
+  double hidden_alpha = 0.25;  ///< opacity of overlay parts behind the surface (0: hide them), times line_alpha
+  double line_alpha = 1.0;     ///< opacity of the visible lattice lines
+  double line_width = 1.0;     ///< pixels (lines are anti-aliased)
 };
 
 /// A triangle mesh loaded into an Embree scene; build once, then pick and render
@@ -61,8 +67,11 @@ class RayScene {
  public:
   /// @param[in] V  #V x 3 vertex positions
   /// @param[in] F  #F x 3 triangles
+  /// @param[in] fast_build  a quicker, less optimised BVH (Embree's low build quality):
+  ///                        for a scene rendered once, where the build costs more than the rays
   /// @throws InvalidInputError for a bad mesh, DeviceError when Embree fails
-  RayScene(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F);
+  RayScene(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
+           bool fast_build = false);
   ~RayScene();
   RayScene(const RayScene&) = delete;
   RayScene& operator=(const RayScene&) = delete;
@@ -71,6 +80,9 @@ class RayScene {
   /// @param[in] origins     n x 3 ray origins
   /// @param[in] directions  n x 3 directions (normalised here; must be non-zero)
   /// @param[in] tmin        hits closer than this (along the unit direction) are ignored
+  /// @throws InvalidInputError for a ray whose origin is so far from the mesh (about 1e23
+  ///         mesh sizes, unless axis-aligned) that double precision cannot place it near the
+  ///         mesh to float32 accuracy
   std::vector<RayHit> intersect(const Eigen::Ref<const RowMatrixX3d>& origins,
                                 const Eigen::Ref<const RowMatrixX3d>& directions, double tmin = 0.0) const;
 

@@ -1,0 +1,376 @@
+"""Pictures that explain a deformation: rest | plain FFD | volume-preserved side
+by side, one camera, each panel captioned with its volume, the surface coloured
+by the local volume change det J of the deformation, and the model's own up axis.
+
+>>> import vpffd
+>>> mesh = vpffd.shapes.icosphere(3)
+>>> lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5))
+>>> d = vpffd.Deformer(mesh, lat)
+>>> r = d.deform(vpffd.edits.squash(lat.control_points, 0.6), axes="xy")
+>>> img = vpffd.render_comparison(d, r, size=(480, 200))  # doctest: +SKIP
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import _core
+from .camera import Camera, _size
+from .colormap import FOLD_COLOR, colormap, volume_change_colors, volume_change_limit
+from .mesh import Mesh
+from .picking import _require_embree
+
+InvalidInputError = _core.InvalidInputError
+BackendUnavailableError = _core.BackendUnavailableError
+
+AXES = "xyz"
+LATTICE_STYLES = ("none", "faint", "full")
+
+# A three-quarter view from the front, right and above, in the model's up frame:
+# z up looks from -y (the front of a z-up model), y up from +z, x up from +y.
+_VIEW = {"z": (1.0, -1.6, 0.9), "y": (1.0, 0.9, 1.6), "x": (0.9, 1.0, -1.6)}
+
+# Formats whose files are y-up by convention (scanners, Stanford PLY, OBJ from
+# modelling tools, glTF) and z-up (3D printing, CAD).
+_Y_UP_FORMATS = ("ply", "obj", "off", "om", "gltf", "glb")
+_Z_UP_FORMATS = ("stl", "3mf", "amf")
+
+
+def _axis_index(up) -> int:
+    if isinstance(up, str) and up.lower() in ("x", "y", "z"):
+        return AXES.index(up.lower())
+    raise InvalidInputError(f"up: expected 'x', 'y' or 'z', got {up!r}")
+
+
+def guess_up_axis(mesh, path=None) -> tuple:
+    """(axis, reason): the model's up axis, "x", "y" or "z", and why.
+
+    1. A standing model has a flat base: faces facing down along the axis, at
+       its lowest end. The axis whose end (either one) carries the largest such
+       area (at least 1 % of the surface, 1.5 times the runner-up) is up.
+    2. Otherwise the file's convention, from ``path``'s extension: scans and
+       modelling formats (PLY, OBJ, OFF, glTF) are y-up, 3D-printing formats
+       (STL, 3MF) z-up.
+    3. Otherwise z, vpffd's own convention.
+    """
+    m = Mesh.from_any(mesh)
+    V, F = m.vertices, m.faces
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    n = np.cross(b - a, c - a)  # twice the area, along the normal
+    area2 = np.linalg.norm(n, axis=1)
+    total = float(area2.sum())
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    ext = hi - lo
+    scores = []
+    if total > 0 and ext.max() > 0:
+        cen = (a + b + c) / 3.0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            unit = n / area2[:, None]
+        cos_flat = math.cos(math.radians(12))
+        for k in range(3):
+            if ext[k] <= 0:
+                continue
+            near = 0.02 * ext[k]
+            for end, sign in ((lo[k], -1.0), (hi[k], 1.0)):
+                # the base faces outwards at its end; either winding counts
+                flat = (np.abs(unit[:, k]) > cos_flat) & (np.abs(cen[:, k] - end) <= near)
+                scores.append((float(area2[flat].sum()) / total, k, "lowest" if sign < 0 else "highest"))
+    scores.sort(reverse=True)
+    if scores and scores[0][0] >= 0.01:
+        best, runner = scores[0], next((s for s in scores[1:] if s[1] != scores[0][1]), (0.0, -1, ""))
+        if best[0] >= 1.5 * runner[0]:
+            return AXES[best[1]], (f"flat base of {100 * best[0]:.1f} % of the surface at the {best[2]} "
+                                   f"{AXES[best[1]]}")
+    if path is not None:
+        import os
+        name = os.path.basename(os.fsdecode(path)).lower()
+        if name.endswith(".gz"):
+            name = name[:-3]
+        ext_name = name.rsplit(".", 1)[-1] if "." in name else ""
+        if ext_name in _Y_UP_FORMATS:
+            return "y", f".{ext_name} files are y-up by convention"
+        if ext_name in _Z_UP_FORMATS:
+            return "z", f".{ext_name} files are z-up by convention"
+    return "z", "no flat base and no file convention: vpffd's default"
+
+
+def view_direction(up="z") -> np.ndarray:
+    """(3,) unit direction from the target towards the eye of the three-quarter
+    view used for a model whose up axis is ``up``."""
+    d = np.array(_VIEW[AXES[_axis_index(up)]])
+    return d / np.linalg.norm(d)
+
+
+def fit_camera(points, up="z", size=(800, 600), direction=None, fov: float = 30.0, margin: float = 1.04) -> Camera:
+    """A camera looking along ``direction`` (default: ``view_direction(up)``) with
+    ``up`` upwards, placed so that every one of ``points`` (n, 3) lies in the
+    image of ``size`` with ``margin`` (>= 1) and their projection is centred: the
+    points' extent fills the limiting image dimension (unlike
+    ``Camera.framing``, which fits the bounding sphere)."""
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if P.shape[0] == 0 or not np.isfinite(P).all():
+        raise InvalidInputError("fit_camera: no finite points to frame")
+    w, h = _size(size, "fit_camera")
+    k = _axis_index(up)
+    up_v = np.zeros(3)
+    up_v[k] = 1.0
+    d = view_direction(up) if direction is None else np.asarray(direction, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    f = -d
+    r = np.cross(f, up_v)
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    ty = math.tan(math.radians(fov) / 2)
+    tx = ty * w / h
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    c = 0.5 * (lo + hi)
+    size_ = float(np.linalg.norm(hi - lo)) or 1.0
+    A, B, Z = (P - c) @ r, (P - c) @ u, (P - c) @ d
+    dist = 0.0
+    for _ in range(4):  # distance for the target, then centre the projection, and again
+        dist = float(max(np.max(Z + margin * np.abs(A) / tx), np.max(Z + margin * np.abs(B) / ty)))
+        dist = max(dist, 1e-6 * size_)
+        depth = dist - Z
+        sx, sy = A / depth, B / depth
+        mx, my = 0.5 * (sx.min() + sx.max()), 0.5 * (sy.min() + sy.max())
+        shift_a, shift_b = mx * dist, my * dist
+        c = c + shift_a * r + shift_b * u
+        A, B = A - shift_a, B - shift_b
+    return Camera(c + dist * d, c, up_v, fov)
+
+
+def local_volume_change(deformer, control_points=None) -> np.ndarray:
+    """(V,) det J at every vertex: the local volume ratio of the FFD with
+    ``control_points`` (default: the lattice's), exact from the B-spline
+    Jacobians. Below 1 compressed, above 1 expanded, <= 0 folded."""
+    J = deformer.jacobians(control_points)
+    return (J[:, 0, 0] * (J[:, 1, 1] * J[:, 2, 2] - J[:, 1, 2] * J[:, 2, 1])
+            - J[:, 0, 1] * (J[:, 1, 0] * J[:, 2, 2] - J[:, 1, 2] * J[:, 2, 0])
+            + J[:, 0, 2] * (J[:, 1, 0] * J[:, 2, 1] - J[:, 1, 1] * J[:, 2, 0]))
+
+
+def _axes_of(result) -> str:
+    axes = []
+    for s in getattr(result, "steps", None) or []:
+        a = s.get("axis") if isinstance(s, dict) else None
+        a = AXES[a] if isinstance(a, (int, np.integer)) and 0 <= a < 3 else a
+        if isinstance(a, str) and a in AXES and a not in axes:
+            axes.append(a)
+    return "".join(sorted(axes))
+
+
+def _font(px: int):
+    from PIL import ImageFont
+    for name in ("DejaVuSans.ttf", "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"):
+        try:
+            return ImageFont.truetype(name, px), True
+        except OSError:
+            pass
+    try:
+        import matplotlib
+        import os
+        return ImageFont.truetype(os.path.join(matplotlib.get_data_path(), "fonts", "ttf", "DejaVuSans.ttf"),
+                                  px), True
+    except (ImportError, OSError):
+        pass
+    try:
+        return ImageFont.load_default(size=px), False
+    except TypeError:  # Pillow < 10.1
+        return ImageFont.load_default(), False
+
+
+def _lattice_kw(style: str) -> dict:
+    if style == "faint":
+        return dict(points=False, line_color=(0.30, 0.36, 0.50), line_alpha=0.30, hidden_alpha=0.35,
+                    line_width=1.0)
+    return dict(point_radius=2.2, line_alpha=0.9, hidden_alpha=0.25, line_width=1.2)
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:+.2f} %"
+
+
+def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, lattice_style: str = "faint",
+                      color: str = "volume", samples: int = 2, labels=None, limit=None, fov: float = 30.0,
+                      background=(1.0, 1.0, 1.0)) -> np.ndarray:
+    """Panels side by side, one camera: rest | plain FFD | volume-preserved.
+
+    Parameters
+    ----------
+    mesh : vpffd.Deformer, or the rest Mesh (then ``lattice`` is needed)
+        the deformer that produced ``result`` (it gives the plain FFD and the
+        Jacobians; a Mesh and a Lattice build one).
+    result : DeformResult, or a list of them / of (label, DeformResult) pairs
+        corrected frames of the same edit (e.g. axes "xy" and "z"), one panel
+        each; the plain FFD panel uses the first one's uncorrected control
+        points (``control_points - offsets``).
+    lattice : vpffd.Lattice, optional
+        with a Mesh for ``mesh``.
+    size : (width, height)
+        the whole picture, in pixels.
+    up : "x", "y", "z" or None
+        the model's up axis, upwards in the picture (None: ``guess_up_axis``).
+    lattice_style : "none", "faint" or "full"
+        no lattice; thin translucent lines; lines and control points.
+    color : "volume" or "none"
+        colour the surface by the local volume change det J (log scale centred
+        at 1: blue compressed, red expanded, green folds) with a colour bar, or
+        plain grey.
+    samples : int
+        anti-aliasing rays per pixel per axis at edges (1..8).
+    labels : list of str, optional
+        panel titles (default "rest", "plain FFD", "volume-preserved, <axes>").
+    limit : float, optional
+        det J at which the colours saturate (and 1 / limit); default: covers
+        95 % of the values shown.
+
+    Returns
+    -------
+    (H, W, 3) uint8 image. Captions need Pillow (``pip install pillow``).
+    """
+    _require_embree("render_comparison")
+    try:
+        from PIL import Image, ImageDraw
+    except ImportError:
+        raise BackendUnavailableError("render_comparison: captions need Pillow (pip install pillow)") from None
+    from .deformer import Deformer, DeformResult
+    from .rendering import _color3, render
+
+    if isinstance(mesh, Deformer):
+        d = mesh
+    else:
+        if lattice is None:
+            raise InvalidInputError("render_comparison: pass the Deformer, or the rest mesh and its lattice")
+        d = Deformer(mesh, lattice)
+    rest, lat = d.mesh, d.lattice
+    if lattice_style not in LATTICE_STYLES:
+        raise InvalidInputError(f"render_comparison: lattice_style must be one of {', '.join(LATTICE_STYLES)}, "
+                                f"got {lattice_style!r}")
+    if color not in ("volume", "none"):
+        raise InvalidInputError(f"render_comparison: color must be 'volume' or 'none', got {color!r}")
+    items = result if isinstance(result, (list, tuple)) else [result]
+    pairs = []
+    for it in items:
+        lab, r = it if isinstance(it, tuple) else (None, it)
+        if not isinstance(r, DeformResult):
+            raise TypeError(f"render_comparison: expected DeformResult(s), got {type(r).__name__}")
+        if r.vertices.shape != rest.vertices.shape:
+            raise InvalidInputError(f"render_comparison: a result has {r.vertices.shape[0]} vertices, the mesh "
+                                    f"{rest.n_vertices}")
+        pairs.append((lab, r))
+    if not pairs:
+        raise InvalidInputError("render_comparison: no result to show")
+    w, h = _size(size, "render_comparison")
+    up = guess_up_axis(rest)[0] if up is None else AXES[_axis_index(up)]
+    bg = _color3(background, "background")
+
+    r0 = pairs[0][1]
+    plain_cp = r0.control_points - r0.offsets
+    preserved = any(r.steps for _, r in pairs)
+    panels = [("rest", rest.vertices, lat.rest_points, None, r0.rest_volume)]
+    panels.append(("plain FFD" if preserved else "deformed", d.ffd(plain_cp), plain_cp, plain_cp, r0.volume_before))
+    if preserved:
+        for lab, r in pairs:
+            axes = _axes_of(r)
+            panels.append((lab or (f"volume-preserved, {axes}" if axes else "volume-preserved"), r.vertices,
+                           r.control_points, r.control_points, r.volume))
+    if labels is not None:
+        if len(labels) != len(panels):
+            raise InvalidInputError(f"render_comparison: {len(labels)} labels for {len(panels)} panels")
+        panels = [(str(lb),) + p[1:] for lb, p in zip(labels, panels)]
+    n = len(panels)
+
+    # Layout: captions above, colour bar below, panels of one size between.
+    fs = max(10, int(round(0.03 * min(h, 1.2 * w / n))))
+    font, unicode_ok = _font(fs)
+    small, _ = _font(max(9, int(round(0.85 * fs))))
+    cap_h = int(2.7 * fs)
+    bar_h = int(3.0 * fs) if color == "volume" else 0
+    pw, ph = w // n, h - cap_h - bar_h
+    if pw < 8 or ph < 8:
+        raise InvalidInputError(f"render_comparison: {w} x {h} pixels is too small for {n} panels")
+
+    detj = [None] * n
+    if color == "volume":
+        detj[0] = np.ones(rest.n_vertices)
+        for i in range(1, n):
+            detj[i] = local_volume_change(d, panels[i][3])
+        if limit is None:
+            limit = volume_change_limit(np.concatenate(detj[1:]))
+        limit = float(limit)
+        if not (math.isfinite(limit) and limit > 1):
+            raise InvalidInputError(f"render_comparison: limit must be a finite number > 1, got {limit!r}")
+
+    cam = fit_camera(np.concatenate([p[1] for p in panels]), up=up, size=(pw, ph), fov=fov)
+    canvas = np.empty((h, w, 3), np.uint8)
+    canvas[:] = np.round(bg * 255).astype(np.uint8)
+    x0 = (w - n * pw) // 2
+    for i, (lab, V, cp, _, vol) in enumerate(panels):
+        kw = {} if lattice_style == "none" else dict(lattice=lat, control_points=cp, **_lattice_kw(lattice_style))
+        colors = volume_change_colors(detj[i], limit) if color == "volume" else None
+        img = render(Mesh(V, rest.faces), cam, size=(pw, ph), colors=colors, samples=samples,
+                     background=bg, **kw)
+        canvas[cap_h:cap_h + ph, x0 + i * pw:x0 + (i + 1) * pw] = img
+
+    pic = Image.fromarray(canvas)
+    draw = ImageDraw.Draw(pic)
+    ink, grey = (25, 25, 25), (95, 95, 95)
+    minus = "\u2212" if unicode_ok else "-"
+    rest_vol = r0.rest_volume
+    for i, (lab, V, cp, _, vol) in enumerate(panels):
+        cx = x0 + i * pw + pw // 2
+        draw.text((cx, int(0.25 * fs)), lab, fill=ink, font=font, anchor="ma")
+        if vol is None or not (math.isfinite(vol) and math.isfinite(rest_vol)) or rest_vol == 0:
+            sub = "no enclosed volume (open mesh)"
+        elif i == 0:
+            sub = f"volume {vol:.6g}"
+        else:
+            ch = (vol - rest_vol) / rest_vol
+            sub = (f"volume {vol:.6g}  ({_pct(ch)})" if abs(ch) >= 5e-5 else
+                   f"volume {vol:.6g}  (error {ch:+.1e})")
+        draw.text((cx, int(1.45 * fs)), sub.replace("-", minus), fill=grey, font=small, anchor="ma")
+    if color == "volume":
+        _colour_bar(draw, pic, w, h - bar_h, bar_h, fs, font, small, limit,
+                    int(sum(int((dj <= 0).sum()) for dj in detj[1:])), unicode_ok)
+    return np.asarray(pic, dtype=np.uint8).copy()
+
+
+def _colour_bar(draw, pic, w, top, height, fs, font, small, limit, folds, unicode_ok):
+    """The det J scale: a log-scale gradient 1/limit .. limit with ticks, and the fold swatch."""
+    from PIL import Image
+    le = "\u2264" if unicode_ok else "<="
+    left, right = "det J:  compressed", "expanded"
+    fold_label = f"fold (det J {le} 0)" + (f": {folds:,} vertices" if folds else ": none")
+    gap = int(0.6 * fs)
+    bh = max(6, int(0.7 * fs))
+    lw, rw, fw = (int(draw.textlength(t, font=small)) for t in (left, right, fold_label))
+    side = max(lw, rw + 2 * gap + bh + int(0.4 * fs) + fw)  # keep the bar centred
+    bw = int(min(0.42 * w, 40 * fs, w - 2 * (side + gap) - 2 * gap))
+    if bw < 4 * fs:  # too narrow for a readable scale: the bar alone, full width
+        bw, side = max(8, w - 4 * gap), None
+    bx = (w - bw) // 2
+    by = top + int(0.35 * fs)
+    t = np.linspace(-1.0, 1.0, bw)
+    row = (colormap(t, "coolwarm", -1.0, 1.0) * 255 + 0.5).astype(np.uint8)
+    pic.paste(Image.fromarray(np.repeat(row[None], bh, axis=0)), (bx, by))
+    draw.rectangle([bx - 1, by - 1, bx + bw, by + bh], outline=(90, 90, 90))
+    ticks = [1 / limit, 1 / math.sqrt(limit), 1.0, math.sqrt(limit), limit]
+    for k, v in enumerate(ticks):
+        x = bx + int(round((math.log(v) / math.log(limit) + 1) / 2 * (bw - 1)))
+        draw.line([x, by + bh, x, by + bh + int(0.3 * fs)], fill=(90, 90, 90))
+        txt = f"{v:.3g}"
+        if k == 0:
+            txt = le + " " + txt
+        elif k == len(ticks) - 1:
+            txt = ("\u2265 " if unicode_ok else ">= ") + txt
+        draw.text((x, by + bh + int(0.35 * fs)), txt, fill=(60, 60, 60), font=small, anchor="ma")
+    if side is None:
+        return
+    ink = (40, 40, 40)
+    draw.text((bx - gap, by + bh // 2), left, fill=ink, font=small, anchor="rm")
+    draw.text((bx + bw + gap, by + bh // 2), right, fill=ink, font=small, anchor="lm")
+    sx = bx + bw + gap + rw + 2 * gap
+    fold = tuple(int(round(255 * c)) for c in FOLD_COLOR)
+    draw.rectangle([sx, by, sx + bh, by + bh], fill=fold, outline=(90, 90, 90))
+    draw.text((sx + bh + int(0.4 * fs), by + bh // 2), fold_label, fill=ink, font=small, anchor="lm")
