@@ -18,7 +18,8 @@ proportional to alpha_c / w_c = alpha_c (r_c^2 + eps): control points whose
 support changed no volume move a millionth as much as the most changed ones,
 and the square keeps points at the fringe of an edit (small r_c) nearly still.
 The volume is still corrected exactly (the weights only choose which exact
-solution). Without any volume change the weights are uniform.
+solution). Without any volume change (max L below 1e-12 of the summed
+|cone volumes|, i.e. rounding) the weights are uniform.
 """
 from __future__ import annotations
 
@@ -56,7 +57,12 @@ def auto_weights(deformer, control_points=None):
     (uniform) when the plain FFD changed no face's volume."""
     L = local_volume_change(deformer, control_points)
     top = float(L.max()) if L.size else 0.0
-    if not (np.isfinite(top) and top > 0):
+    # Rounding alone changes a face's cone volume by ~1e-16 of it; below 1e-12 of
+    # the total there is no edit to follow.
+    c = deformer.lattice.center
+    X, F = deformer.mesh.vertices, deformer.mesh.faces
+    scale = float(np.abs(np.einsum("ij,ij->i", X[F[:, 0]] - c, np.cross(X[F[:, 1]] - c, X[F[:, 2]] - c))).sum()) / 6
+    if not (np.isfinite(top) and top > 1e-12 * scale):
         return None
     r = L / top
     return 1.0 / (r * r + AUTO_EPS)

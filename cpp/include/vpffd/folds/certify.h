@@ -281,6 +281,8 @@ inline CellVerdict certify_cell(FoldNet root, int depth, double scale0, FoldWork
     ++out.subcells;
     const double scale = std::ldexp(scale0, 3 * net.level);
     if (std::isfinite(v.min_corner)) out.min_det = std::min(out.min_det, v.min_corner * scale);
+    // The cell's bound is that of its whole net (the first one tested).
+    if (net.level == 0) out.lower = v.lower * scale;
     if (v.sign < 0) {
       out.status = CellStatus::Folded;
       out.has_witness = true;
@@ -288,10 +290,8 @@ inline CellVerdict certify_cell(FoldNet root, int depth, double scale0, FoldWork
       out.witness_det = interior_witness(v, w, tau) * scale;
       for (int a = 0; a < 3; ++a)
         out.witness_tau[a] = std::ldexp(static_cast<double>(net.origin[a]) + tau[a], -net.level);
-      // The cell's bound stays that of its whole net (the first one tested).
       return out;
     }
-    if (net.level == 0) out.lower = v.lower * scale;
     if (v.sign > 0) continue;
     // Undecided: split unless the depth, the budget or a numerically zero det J says stop.
     if (net.level >= depth || v.zero || out.subcells + static_cast<int>(w.stack.size()) + 8 > kMaxSubcellsPerCell) {
