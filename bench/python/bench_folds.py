@@ -22,16 +22,16 @@ from vpffd.benchmark import median_ms
 
 
 def edits(lat):
-    """(name, control points): a 90 deg twist, a 300 deg twist and a random edit
-    (each control point moved by N(0, 0.15 cell)), all fold-free or not as they come."""
+    """(name, control points): a 90 deg twist, a 300 deg twist and two random edits
+    (each control point coordinate moved by N(0, s cell)); verdicts as they come."""
     n = lat.shape[0]
     rng = np.random.default_rng(1)
     cell = (lat.box_max - lat.box_min) / (n - 3)
     return [
         ("twist 90", vpffd.twist(lat.rest_points, 90)),
         ("twist 300", vpffd.twist(lat.rest_points, 300)),
-        ("random 0.15 cell", lat.rest_points + rng.normal(0, 0.15, lat.rest_points.shape) * cell),
-        ("random 0.5 cell", lat.rest_points + rng.normal(0, 0.5, lat.rest_points.shape) * cell),
+        ("random 0.03 cell", lat.rest_points + rng.normal(0, 0.03, lat.rest_points.shape) * cell),
+        ("random 0.3 cell", lat.rest_points + rng.normal(0, 0.3, lat.rest_points.shape) * cell),
     ]
 
 
