@@ -315,3 +315,26 @@ def test_bad_input(cube_case):
     Q0 = Q.copy()
     vpffd.check_folds(lat, Q)
     assert np.array_equal(Q, Q0)
+
+
+# --- the command line and the demo print a verdict -----------------------------------
+def test_cli_deform_and_demo_print_fold_verdicts(tmp_path, capsys):
+    from vpffd.__main__ import main
+    from vpffd.demo import run_demo
+    vpffd.save_mesh(tmp_path / "s.obj", vpffd.shapes.icosphere(2))
+    assert main(["deform", str(tmp_path / "s.obj"), str(tmp_path / "o.obj"), "--squash", "0.3",
+                 "--twist", "200"]) == 0
+    out = capsys.readouterr().out
+    assert "folds: FOLDED: det J = -" in out and "cell (" in out
+    assert main(["deform", str(tmp_path / "s.obj"), str(tmp_path / "o.obj"), "--twist", "45"]) == 0
+    assert "folds: fold-free" in capsys.readouterr().out
+    import io
+    s = io.StringIO()
+    res = run_demo(out=tmp_path / "demo", quick=True, render=False, stream=s)
+    text = s.getvalue()
+    assert "folds (plain, " in text
+    # one verdict word per variant on every frame line
+    frames = sum(sc.frames for sc in res["scenes"])
+    lines = [ln for ln in text.splitlines() if ln.rstrip().endswith(("ok", "FOLD", "?", "*"))
+             and ln.strip()[:1].isdigit()]
+    assert len(lines) == frames
