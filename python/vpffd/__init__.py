@@ -26,7 +26,8 @@ from .deformer import Deformer, DeformResult, available_backends, vulkan_devices
 from .edits import bend, scale, squash, taper, twist
 from .lattice import Lattice
 from .mesh import Mesh
-from . import check, normals, io
+from . import check, normals, io, folds, local_weights
+from .folds import FoldError, FoldReport, FoldWarning, check_folds
 from .check import MeshCheck
 from .io import load_mesh, save_mesh
 from .normals import deformed_normals, vertex_normals
@@ -50,4 +51,5 @@ __all__ = [
     "load_mesh", "save_mesh", "MeshCheck", "check", "render", "save_png", "load_png", "Camera", "Hit", "Scene",
     "pick", "pick_pixel", "vertex_normals", "deformed_normals", "normals", "io",
     "render_comparison", "local_volume_change", "guess_up_axis",
+    "folds", "check_folds", "FoldReport", "FoldError", "FoldWarning", "local_weights",
 ]

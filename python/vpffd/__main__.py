@@ -256,6 +256,7 @@ def _deform(args, bar) -> int:
         print("  the mesh is not closed: no volume (and no volume correction)")
     if cons:
         print(f"  dragged points reached their targets to {r.constraint_error:.1e}")
+    print(f"  folds: {d.check_folds(r.control_points).verdict()}")
     print(f"  {r.backend} backend, {ms:.1f} ms; wrote {args.output}")
     if args.render:
         _render_png(args.render, d, r, args.size, args.up, args.lattice_style)

@@ -8,7 +8,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['BackendUnavailableError', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'RayScene', 'SolverError', 'VulkanDeformer', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_mesh', 'clamped_uniform_knots', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_vulkan', 'icosphere', 'max_threads', 'mesh_formats', 'orient_faces', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
+__all__: list[str] = ['BackendUnavailableError', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'RayScene', 'SolverError', 'VulkanDeformer', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
 class InvalidInputError(ValueError):
     pass
 class SolverError(RuntimeError):
@@ -162,6 +162,10 @@ def check_mesh(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "
     """
     Defect counts of a triangle mesh (see vpffd/mesh/check.h).
     """
+def check_folds(lattice: LatticeSpec, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], depth: typing.SupportsInt | typing.SupportsIndex = 3, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> dict:
+    """
+    Fold-over check of a lattice: a dict with the verdict, per-cell arrays and the witness.
+    """
 def clamped_uniform_knots(n: typing.SupportsInt | typing.SupportsIndex, degree: typing.SupportsInt | typing.SupportsIndex, lo: typing.SupportsFloat | typing.SupportsIndex = 0.0, hi: typing.SupportsFloat | typing.SupportsIndex = 1.0) -> list[float]:
     ...
 def deformed_normals_exact(jacobians: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]", "flags.c_contiguous"], rest_normals: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
@@ -230,3 +234,5 @@ __version__: str = '0.1.0'
 has_embree: bool = True
 has_openmesh: bool = True
 has_vulkan: bool = True
+max_fold_depth: int
+max_subcells_per_cell: int

@@ -9,6 +9,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _arrays, _core
+from . import folds as _folds
+from . import local_weights as _local_weights
 from .lattice import Lattice, _check_memory
 from .mesh import Mesh
 
@@ -141,6 +143,9 @@ class DeformResult:
         "vulkan", whatever was asked).
     faces : (F, 3) int32 or None
         the mesh's faces (shared, read-only), so the result is a mesh by itself.
+    folds : FoldReport or None
+        the fold check of the corrected control points (``Deformer.check_folds``)
+        when ``deform`` ran with ``on_fold`` other than "ignore"; None when unchecked.
     """
     vertices: np.ndarray
     control_points: np.ndarray
@@ -154,6 +159,7 @@ class DeformResult:
     backend: str = ""
     method: str = ""
     faces: np.ndarray = None
+    folds: object = None
 
     def to_trimesh(self):
         """The deformed mesh as a ``trimesh.Trimesh`` (vertex order kept; needs trimesh)."""
@@ -252,6 +258,7 @@ class Deformer:
         # The CPU core keeps the rest volume, matrices, ffd() and jacobians() for both.
         self._d = self._vk.cpu if self._vk is not None else _core.Deformer(
             self.mesh.vertices, self.mesh.faces, lattice._spec, outside, self._threads)
+        self._last_frame = None  # Vulkan: the arguments of the last frame kept (see on_fold)
 
     # --- properties -----------------------------------------------------------
     @property
@@ -308,7 +315,7 @@ class Deformer:
 
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", weights=None,
                fixed=None, constraints=None, target_volume=None, method: str = "traversal",
-               allow_open: bool = False, rounds: int = 1) -> DeformResult:
+               allow_open: bool = False, rounds: int = 1, on_fold: str = "ignore") -> DeformResult:
         """Deforms the mesh and corrects its volume.
 
         Parameters
@@ -320,8 +327,10 @@ class Deformer:
         axes : str
             axes the control points may move along, in order: "xyz" (default),
             "xy" (horizontal only), "z", ... Each takes an equal share of the gap.
-        weights : (nu, nv, nw) or (N,) positive floats, optional
+        weights : (nu, nv, nw) or (N,) positive floats, or "auto", optional
             weighted least squares (Remark 2): large weights keep points still.
+            "auto": derived from where the plain FFD changed the volume, so the
+            correction stays where the edit was (``vpffd.local_weights``).
         fixed : (nu, nv, nw) or (N,) bool, optional
             control points that must not move.
         constraints : list of (source, target), optional
@@ -342,6 +351,13 @@ class Deformer:
         allow_open : bool
             correct the "volume" of a mesh that is not closed (with a warning):
             the cone volume from the lattice centre, which depends on that centre.
+        on_fold : {"ignore", "warn", "raise"}
+            check the *corrected* control points for fold-over (``check_folds``;
+            a few ms for a 10^3 cubic lattice) and put the report in
+            ``result.folds``. "warn" emits a ``FoldWarning`` naming the folded
+            cell, "raise" raises ``FoldError`` (its ``report`` attached) and keeps
+            the previous frame (on "vulkan" the device's vertices are put back).
+            Only a proven fold triggers; undecided cells do not.
 
         Raises
         ------
@@ -350,13 +366,20 @@ class Deformer:
         SolverError
             no correction exists (all coefficients zero, dependent constraints,
             more conditions than free control points).
+        FoldError
+            ``on_fold="raise"`` and the corrected lattice folds.
         """
         if not isinstance(preserve_volume, (bool, np.bool_)):
             raise TypeError(f"preserve_volume: expected a bool, got {type(preserve_volume).__name__}")
         if not isinstance(axes, str):
             raise TypeError(f"axes: expected a string such as 'xyz', got {type(axes).__name__}")
+        _folds.check_on_fold(on_fold)
         n, shape = self.n_control_points, self.lattice.shape
         P = self._P(control_points)
+        if isinstance(weights, str):
+            if weights != "auto":
+                raise InvalidInputError(f"weights: expected an array or 'auto', got {weights!r}")
+            weights = _local_weights.auto_weights(self, P)
         w = None if weights is None else _arrays.per_control_point(weights, n, shape, "weights", float)
         fx = None if fixed is None else _arrays.per_control_point(fixed, n, shape, "fixed", bool)
         cons = []
@@ -395,6 +418,9 @@ class Deformer:
                           "centre, which depends on where that centre is", stacklevel=2)
         args = (P, bool(preserve_volume), axes, w, fx, cons, tv, method, self._threads, bool(allow_open))
         r = (self._vk if self._vk is not None else self._d).deform(*args, int(rounds))
+        folds = _folds.check_frame(self, r["control_points"], on_fold, self._restore_last_frame)
+        if self._vk is not None:
+            self._last_frame = (args, int(rounds))
         rest = self._d.rest_volume(True) if (self._d.is_closed or allow_open) else float("nan")
         return DeformResult(
             vertices=r["vertices"],
@@ -403,7 +429,27 @@ class Deformer:
             volume=r["volume"], volume_before=r["volume_before"], target_volume=r["target_volume"],
             rest_volume=rest, constraint_error=r["constraint_error"], steps=r["steps"],
             # The device always runs the traversal: report what ran, not what was asked.
-            backend=self.backend, method="traversal" if self._vk is not None else method, faces=self.mesh.faces)
+            backend=self.backend, method="traversal" if self._vk is not None else method, folds=folds,
+            faces=self.mesh.faces)
+
+    def _restore_last_frame(self) -> None:
+        """Vulkan: runs the last kept frame again (the rest shape before any), so
+        the device's vertices are those of the previous result again."""
+        if self._vk is None:
+            return
+        if self._last_frame is None:
+            rest = np.ascontiguousarray(self.lattice.rest_points.reshape(-1, 3))
+            self._vk.deform(rest, False, "xyz", None, None, [], None, "traversal", self._threads, False, 1,
+                            read_vertices=False)
+        else:
+            args, rounds = self._last_frame
+            self._vk.deform(*args, rounds, read_vertices=False)
+
+    def check_folds(self, control_points=None, depth: int = _folds.DEFAULT_DEPTH, threads=None):
+        """Fold-over check of the lattice with ``control_points`` (default the
+        lattice's; pass ``result.control_points`` for a corrected frame), plus det J
+        at the mesh vertices (``vertex_min_det``). See ``vpffd.check_folds``."""
+        return _folds.check_deformer_folds(self, control_points, depth, threads)
 
     @property
     def device(self):

@@ -212,6 +212,13 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
 
 
 # --- numbers ---------------------------------------------------------------------
+def _fold_mark(lattice, control_points) -> str:
+    """One word for a frame's fold check: "ok" (proven fold-free), "FOLD", or "?" (undecided)."""
+    from .folds import check_folds
+    rep = check_folds(lattice, control_points)
+    return "FOLD" if rep.folded else ("ok" if rep.certified else "?")
+
+
 def _table(scene: Scene, stream) -> None:
     res = scene.results
     plain = res["plain"]
@@ -224,11 +231,12 @@ def _table(scene: Scene, stream) -> None:
     head = f"  {'frame':>5} {'t (s)':>6} {scene.param_name:>10} {'plain FFD':>10}"
     for k in kept:
         head += f" {'keep ' + res[k].axes:>10}"
-    p(head)
+    p(head + "  folds (plain, " + ", ".join(res[k].axes for k in kept) + ")")
     for f, t in enumerate(plain.times):
         line = f"  {f:>5} {t:6.3f} {scene.param(t):10.1f} {100 * plain.volume_change_plain[f]:+9.2f}%"
         for k in kept:
             line += f" {res[k].volume_change[f]:+10.1e}"
+        line += "  " + " ".join(_fold_mark(scene.lattice, res[k].corrected_points[f]) for k in ["plain", *kept])
         p(line + ("  *" if f in scene.keyframes[1:] else ""))
     losses = ", ".join(f"{-100 * plain.volume_change_plain[f]:.1f} % (frame {f})" for f in scene.keyframes[1:])
     worst = max(res[k].max_volume_error for k in kept)

@@ -13,6 +13,7 @@
 #include "vpffd/edits/lattice_edits.h"
 #include "vpffd/ffd/basis_matrix.h"
 #include "vpffd/ffd/deformer.h"
+#include "vpffd/folds/certify.h"
 #include "vpffd/lattice/embed.h"
 #include "vpffd/lattice/lattice.h"
 #include "vpffd/mesh/shapes.h"

@@ -1,0 +1,265 @@
+"""Fold-over certification of a lattice (000_4f6fff734e8a30e3.txt, §8).
+
+A B-spline FFD folds (turns space inside out) where det J < 0, J = dD/dx. On
+every lattice cell det J is a polynomial of degree 3d-1 per axis; its
+Bernstein coefficients are computed exactly up to a proven rounding bound.
+All of them positive proves the cell fold-free; a negative corner value is a
+point where it folds; anything else is subdivided (de Casteljau at 1/2) up to
+``depth`` levels and may stay "unknown". See cpp/include/vpffd/folds/.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _arrays, _core
+
+InvalidInputError = _core.InvalidInputError
+
+#: per-cell status values of ``FoldReport.status``
+FOLDED, UNKNOWN, CERTIFIED = -1, 0, 1
+DEFAULT_DEPTH = 3
+MAX_DEPTH = _core.max_fold_depth
+
+
+class FoldError(RuntimeError):
+    """Raised by ``Deformer.deform(..., on_fold="raise")`` when the corrected
+    lattice folds. ``report`` is the FoldReport."""
+
+    def __init__(self, message, report=None):
+        super().__init__(message)
+        self.report = report
+
+
+class FoldWarning(UserWarning):
+    """Emitted by ``Deformer.deform(..., on_fold="warn")`` when the corrected lattice folds."""
+
+
+class FoldReport:
+    """What ``check_folds`` found.
+
+    Attributes
+    ----------
+    certified : bool
+        det J > 0 is proven on the whole lattice domain.
+    folded : bool
+        a point with det J < 0 was found (never together with ``certified``).
+    witness : (3,) float64 or None
+        a rest-space point where det J < 0 (inside a folded cell, near the
+        corner where the fold was found).
+    witness_det : float or None
+        det J at the witness (world units: deformed volume per rest volume).
+    witness_cell : (i, j, k) or None
+    status : (cu, cv, cw) int8
+        per cell: FOLDED (-1), UNKNOWN (0) or CERTIFIED (1). Cells are the
+        non-empty knot spans (cu = nu - du for open-uniform knots).
+    cell_edges : three 1-D arrays
+        rest-space boundaries of the cells along x, y, z (cu+1, cv+1, cw+1 values).
+    cell_min_det, cell_lower_bound : (cu, cv, cw) float64
+        smallest det J met at a point of the cell, and a proven lower bound of
+        det J over it (the true minimum lies between).
+    cell_subcells : (cu, cv, cw) int32
+        subcells examined per cell (1: no refinement needed).
+    min_det, lower_bound : float
+        the same over the whole lattice.
+    n_cells, n_certified, n_folded, n_unknown, n_refined, n_subcells : int
+    vertex_min_det : float or None
+        smallest det J at the mesh vertices (``Deformer.check_folds`` only).
+    vertex_argmin : int or None
+        the vertex where it is.
+    depth : int
+    time_ms : float
+        wall time of the check (the vertex pass included when present).
+    """
+
+    def __init__(self, d: dict, lattice):
+        self.certified = bool(d["certified"])
+        self.folded = bool(d["folded"])
+        self.status = d["status"]
+        self.cell_min_det = d["cell_min_det"]
+        self.cell_lower_bound = d["cell_lower_bound"]
+        self.cell_subcells = d["cell_subcells"]
+        for a in (self.status, self.cell_min_det, self.cell_lower_bound, self.cell_subcells):
+            a.setflags(write=False)
+        self.cells = tuple(int(c) for c in d["cells"])
+        self.spans = tuple(np.asarray(s, dtype=np.int64) for s in d["spans"])
+        self.witness = np.array(d["witness"], dtype=np.float64) if d["has_witness"] else None
+        self.witness_parameters = np.array(d["witness_param"], dtype=np.float64) if d["has_witness"] else None
+        self.witness_det = float(d["witness_det"]) if d["has_witness"] else None
+        self.witness_cell = tuple(int(c) for c in d["witness_cell"]) if d["has_witness"] else None
+        self.min_det = float(d["min_det"])
+        self.lower_bound = float(d["lower_bound"])
+        self.n_certified = int(d["n_certified"])
+        self.n_folded = int(d["n_folded"])
+        self.n_unknown = int(d["n_unknown"])
+        self.n_refined = int(d["n_refined"])
+        self.n_subcells = int(d["n_subcells"])
+        self.n_cells = int(np.prod(self.cells))
+        self.depth = int(d["depth"])
+        self.time_ms = 1e3 * float(d["seconds"])
+        self.vertex_min_det = None
+        self.vertex_argmin = None
+        edges = []
+        for a, (t, s) in enumerate(zip(lattice.knots, self.spans)):
+            u = np.append(t[s], t[s[-1] + 1]) if len(s) else np.zeros(0)
+            lo, hi = t[lattice.degree[a]], t[len(t) - lattice.degree[a] - 1]
+            edges.append(lattice.box_min[a] + (u - lo) / (hi - lo) * (lattice.box_max[a] - lattice.box_min[a]))
+        self.cell_edges = tuple(edges)
+
+    @property
+    def folded_cells(self) -> np.ndarray:
+        """(n, 3) indices (i, j, k) of the folded cells."""
+        return np.argwhere(self.status == FOLDED)
+
+    def cell_of(self, points) -> np.ndarray:
+        """(n, 3) int64 cell indices of rest-space points (points outside the box
+        get the nearest boundary cell)."""
+        X = _arrays.points(points, "FoldReport.cell_of: points", allow_empty=True)
+        out = np.empty((len(X), 3), dtype=np.int64)
+        for a in range(3):
+            e = self.cell_edges[a]
+            out[:, a] = np.clip(np.searchsorted(e, X[:, a], side="right") - 1, 0, len(e) - 2)
+        return out
+
+    def status_at(self, points) -> np.ndarray:
+        """(n,) int8 status of the cell that holds each rest-space point."""
+        c = self.cell_of(points)
+        return self.status[c[:, 0], c[:, 1], c[:, 2]]
+
+    def verdict(self) -> str:
+        """One line: fold-free, folded (where), or undecided."""
+        t = f"{self.time_ms:.1f} ms"
+        if self.folded:
+            i, j, k = self.witness_cell
+            x = ", ".join(f"{v:.4g}" for v in self.witness)
+            return (f"FOLDED: det J = {self.witness_det:.3g} at ({x}) in cell ({i}, {j}, {k}); "
+                    f"{self.n_folded} of {self.n_cells} cells fold ({t})")
+        if self.certified:
+            return f"fold-free: det J >= {self.lower_bound:.3g} proven on all {self.n_cells} cells ({t})"
+        vert = "" if self.vertex_min_det is None else f", min det J at the vertices {self.vertex_min_det:.3g}"
+        return (f"not certified: {self.n_unknown} of {self.n_cells} cells undecided at depth {self.depth} "
+                f"(det J >= {self.lower_bound:.3g}, smallest found {self.min_det:.3g}{vert}; {t})")
+
+    def __bool__(self):
+        raise TypeError("FoldReport has no truth value: use .certified or .folded")
+
+    def __repr__(self) -> str:
+        w = "None" if self.witness is None else "[" + ", ".join(f"{v:.6g}" for v in self.witness) + "]"
+        vert = "" if self.vertex_min_det is None else f", vertex_min_det={self.vertex_min_det:.6g}"
+        return (f"FoldReport(certified={self.certified}, folded={self.folded}, cells={self.cells}, "
+                f"certified/folded/unknown={self.n_certified}/{self.n_folded}/{self.n_unknown}, "
+                f"refined={self.n_refined}, min_det={self.min_det:.6g}, lower_bound={self.lower_bound:.6g}"
+                f"{vert}, witness={w}, depth={self.depth}, time_ms={self.time_ms:.3g})")
+
+
+def _depth(depth) -> int:
+    if isinstance(depth, bool) or not isinstance(depth, (int, np.integer)):
+        raise TypeError(f"check_folds: depth must be an integer, got {type(depth).__name__}")
+    if not 0 <= depth <= MAX_DEPTH:
+        raise InvalidInputError(f"check_folds: depth {depth} not in [0, {MAX_DEPTH}]")
+    return int(depth)
+
+
+def check_folds(lattice, control_points=None, depth: int = DEFAULT_DEPTH, threads=None) -> FoldReport:
+    """Proves that the FFD of ``lattice`` with ``control_points`` does not fold
+    (det J > 0 everywhere in the lattice box), or finds where it does.
+
+    Parameters
+    ----------
+    lattice : vpffd.Lattice
+    control_points : (nu, nv, nw, 3) or (N, 3), optional
+        default: ``lattice.control_points``. Not modified.
+    depth : int, 0..MAX_DEPTH
+        subdivision levels for cells whose Bernstein coefficients do not decide
+        (each level splits a cell in 8; at most 4096 subcells per cell).
+    threads : int, optional
+        OpenMP threads (default all); the report does not depend on it.
+
+    Returns
+    -------
+    FoldReport
+    """
+    from .lattice import Lattice
+    if not isinstance(lattice, Lattice):
+        raise TypeError(f"check_folds: expected a vpffd.Lattice, got {type(lattice).__name__}")
+    P = lattice._control(control_points)
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
+                                or not 1 <= threads <= 4096):
+        raise InvalidInputError(f"check_folds: threads must be an integer in 1..4096 or None, got {threads!r}")
+    return FoldReport(_core.check_folds(lattice._spec, P, _depth(depth), int(threads or 0)), lattice)
+
+
+def vertex_det(deformer, control_points=None) -> np.ndarray:
+    """(V,) det J of the FFD at the rest vertices of ``deformer.mesh``
+    (deformed volume per rest volume; < 0 where the mesh is turned inside out)."""
+    J = deformer.jacobians(control_points)
+    return np.linalg.det(J)
+
+
+def vertex_folds(deformer, control_points=None, report=None, depth: int = DEFAULT_DEPTH):
+    """What a renderer needs to show folds on the mesh: ``(det, status)`` with
+    det (V,) float64 det J at each vertex and status (V,) int8 the status of the
+    lattice cell that holds it (FOLDED, UNKNOWN, CERTIFIED). ``report``: a
+    FoldReport of the same control points (default: checked now)."""
+    rep = report if report is not None else check_folds(deformer.lattice, control_points, depth)
+    return vertex_det(deformer, control_points), rep.status_at(deformer.mesh.vertices)
+
+
+# A negative det J at a vertex decides only beyond the rounding of the Jacobian:
+# each entry is a sum of (d+1)^3 products of basis derivatives and control point
+# coordinates (relative error below 1e-13 of the column's size for d <= 5), so
+# det J is within 3 * 1e-13 * (1 + 1e-13)^2 of the Hadamard bound prod |col|.
+# 1e-9 of that bound is far above it and far below any real fold.
+_VERTEX_DET_TOLERANCE = 1e-9
+
+
+def check_deformer_folds(deformer, control_points=None, depth: int = DEFAULT_DEPTH, threads=None) -> FoldReport:
+    """``check_folds`` of the deformer's lattice plus det J at the mesh vertices
+    (``vertex_min_det``). A vertex with det J clearly below zero is a fold too:
+    when the cells left it undecided, the report becomes ``folded`` with that
+    vertex as the witness."""
+    import time
+    t0 = time.perf_counter()
+    rep = check_folds(deformer.lattice, control_points, depth, threads)
+    J = deformer.jacobians(control_points)
+    det = np.linalg.det(J)
+    v = int(np.argmin(det))
+    rep.vertex_min_det = float(det[v])
+    rep.vertex_argmin = v
+    hadamard = float(np.prod(np.linalg.norm(J[v], axis=0)))
+    if not rep.folded and not rep.certified and det[v] < -_VERTEX_DET_TOLERANCE * hadamard:
+        # Proven negative at a rest vertex (a certified lattice cannot get here).
+        rep.folded = True
+        rep.witness = deformer.mesh.vertices[v].copy()
+        rep.witness_parameters = deformer.lattice.parameters(rep.witness[None])[0]
+        rep.witness_det = float(det[v])
+        rep.witness_cell = tuple(int(c) for c in rep.cell_of(rep.witness[None])[0])
+    rep.time_ms = 1e3 * (time.perf_counter() - t0)
+    return rep
+
+
+ON_FOLD = ("ignore", "warn", "raise")
+
+
+def check_on_fold(on_fold) -> None:
+    """Raises for an ``on_fold`` value other than "ignore", "warn", "raise"."""
+    if not isinstance(on_fold, str) or on_fold not in ON_FOLD:
+        raise InvalidInputError(f"on_fold: expected one of {', '.join(map(repr, ON_FOLD))}, got {on_fold!r}")
+
+
+def check_frame(deformer, corrected, on_fold: str, restore):
+    """The fold check of one ``deform`` frame: None for "ignore", else the report;
+    warns or (after ``restore()``) raises when the corrected lattice folds."""
+    if on_fold == "ignore":
+        return None
+    rep = check_deformer_folds(deformer, corrected)
+    if rep.folded:
+        i, j, k = rep.witness_cell
+        x = ", ".join(f"{v:.4g}" for v in rep.witness)
+        msg = (f"deform: the corrected lattice folds in cell ({i}, {j}, {k}): det J = {rep.witness_det:.3g} at "
+               f"rest point ({x}); {rep.n_folded} of {rep.n_cells} cells fold")
+        if on_fold == "raise":
+            restore()
+            raise FoldError(msg, rep)
+        import warnings
+        warnings.warn(FoldWarning(msg), stacklevel=3)
+    return rep
