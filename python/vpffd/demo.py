@@ -134,7 +134,7 @@ def _label(img, lines):
 def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> list:
     """Renders every frame of every variant; writes the frame PNGs, the GIF and
     the key-frame sheet. Returns the written paths."""
-    from PIL import Image
+    from PIL import Image, ImageDraw
     render, Camera = _renderer()
     from .comparison import _colour_bar, _font, fit_camera, local_volume_change
     from .colormap import volume_change_colors, volume_change_limit
@@ -172,7 +172,12 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
                 vol = f"volume kept (error {r.volume_change[f]:+.0e})"
             else:
                 vol = f"volume {100 * r.volume_change_plain[f]:+.1f} %"
-            pic = _label(Image.fromarray(np.ascontiguousarray(img)), [_LABELS[k], vol])
+            mark = _fold_mark(scene.lattice, r.corrected_points[f])
+            fold_note = {"FOLD": "lattice FOLDS here", "?": "fold check undecided"}.get(mark, "")
+            pic = _label(Image.fromarray(np.ascontiguousarray(img)), [_LABELS[k], vol, fold_note])
+            if mark == "FOLD":  # a folded frame is framed in red, so it shows in the GIF at a glance
+                ImageDraw.Draw(pic).rectangle([0, 0, pic.width - 1, pic.height - 1], outline=(200, 30, 30),
+                                              width=max(3, w // 160))
             panels.append(pic)
             if f in scene.keyframes:
                 sheet_cells[(k, f)] = pic

@@ -12,7 +12,7 @@ import numpy as np
 
 from . import _arrays, _core
 from .camera import Camera, _size
-from .colormap import colormap
+from .colormap import FOLD_COLOR, colormap
 from .mesh import Mesh
 from .picking import _require_embree
 
@@ -30,6 +30,26 @@ def _vertex_colors(colors, n, cmap, vmin, vmax):
     if c.ndim == 2 and c.shape == (n, 3):
         return _rgb(c, _arrays.points(c, "render: colors"), "colors")
     raise InvalidInputError(f"render: colors must be (V,) values or (V, 3) RGB for V={n}, got shape {c.shape}")
+
+
+# Vertices in cells the fold check could not decide: amber, between "fine" and "folded".
+UNDECIDED_COLOR = np.array([0.95, 0.68, 0.10])
+
+
+def _fold_status(folds, rest_vertices, n):
+    """(V,) status per vertex (-1 folded, 0 undecided, 1 certified) from a FoldReport
+    and the rest positions of the vertices, or from a status array given directly."""
+    if hasattr(folds, "status_at"):
+        if rest_vertices is None:
+            raise InvalidInputError("render: folds=<FoldReport> needs rest_vertices, the rest positions of the "
+                                    "mesh's vertices (the report's cells are in rest space)")
+        X = _arrays.points(rest_vertices, "render: rest_vertices", rows=n)
+        return np.asarray(folds.status_at(X))
+    st = np.asarray(folds)
+    if st.shape != (n,) or not np.issubdtype(st.dtype, np.integer):
+        raise InvalidInputError(f"render: folds must be a FoldReport or a (V,) integer status array for V={n}, "
+                                f"got {type(folds).__name__} {getattr(st, 'shape', '')}")
+    return st
 
 
 def lattice_lines(shape) -> np.ndarray:
@@ -73,7 +93,8 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
            background=(1.0, 1.0, 1.0), base_color=(0.72, 0.74, 0.78), samples: int = 1, normals=None,
            cmap=None, vmin=None, vmax=None, lines: bool = True, points: bool = True, point_radius: float = 3.0,
            line_color=(0.85, 0.25, 0.15), point_color=(0.1, 0.2, 0.8), hidden_alpha: float = 0.25,
-           line_alpha: float = 1.0, line_width: float = 1.0, adaptive: bool = True, return_depth: bool = False):
+           line_alpha: float = 1.0, line_width: float = 1.0, adaptive: bool = True, return_depth: bool = False,
+           folds=None, rest_vertices=None):
     """Ray-cast image of a mesh with smooth shading, optionally with a lattice.
 
     Parameters
@@ -115,6 +136,11 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
         width of the lattice lines in pixels (anti-aliased), in (0, 64].
     return_depth : bool
         also return the (H, W) float32 distance from the eye (inf on the background).
+    folds : FoldReport or (V,) int, optional
+        marks the vertices in folded lattice cells in the fold colour (green) and
+        those in undecided cells in amber, over ``colors``: a ``vpffd.check_folds``
+        report with ``rest_vertices`` (V, 3), the rest positions of the mesh's
+        vertices, or the status per vertex (-1, 0, 1) of ``vpffd.folds.vertex_folds``.
 
     Returns
     -------
@@ -150,6 +176,13 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
     elif not isinstance(camera, Camera):
         raise TypeError(f"render: camera must be a vpffd.Camera or None, got {type(camera).__name__}")
     vc = _vertex_colors(colors, m.n_vertices, cmap, vmin, vmax)
+    if folds is not None:
+        st = _fold_status(folds, rest_vertices, m.n_vertices)
+        if vc is None:
+            vc = np.tile(_color3(base_color, "base_color"), (m.n_vertices, 1))
+        vc = np.array(vc, dtype=np.float64)
+        vc[st == 0] = UNDECIDED_COLOR
+        vc[st < 0] = FOLD_COLOR
     N = None if normals is None else _arrays.points(normals, "render: normals", rows=m.n_vertices)
     P = L = None
     if cp is not None:

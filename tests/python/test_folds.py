@@ -338,3 +338,32 @@ def test_cli_deform_and_demo_print_fold_verdicts(tmp_path, capsys):
     lines = [ln for ln in text.splitlines() if ln.rstrip().endswith(("ok", "FOLD", "?", "*"))
              and ln.strip()[:1].isdigit()]
     assert len(lines) == frames
+
+
+@pytest.mark.skipif(not vpffd._core.has_embree, reason="no Embree in this build")
+def test_render_marks_the_vertices_in_folded_cells(cube_case):
+    from vpffd.colormap import FOLD_COLOR
+    mesh, lat = cube_case[0], cube_case[1]
+    bad = swapped_slabs(lat)
+    d = vpffd.Deformer(mesh, lat)
+    rep = vpffd.check_folds(lat, bad)
+    assert rep.folded
+    X = d.ffd(bad)
+    cam = vpffd.Camera.framing(X, size=(160, 120))
+    assert FOLD_COLOR[1] > FOLD_COLOR[0] + 0.4 and FOLD_COLOR[1] > FOLD_COLOR[2] + 0.4  # green
+
+    def fold_pixels(img):
+        # Shading scales the colour; its hue stays: green well above red and blue.
+        r, g, b = (img[..., c].astype(int) for c in range(3))
+        return int(((g > r + 40) & (g > b + 40)).sum())
+
+    plain = vpffd.render((X, mesh.faces), camera=cam, size=(160, 120))
+    marked = vpffd.render((X, mesh.faces), camera=cam, size=(160, 120), folds=rep, rest_vertices=mesh.vertices)
+    status = rep.status_at(mesh.vertices)
+    assert (status == folds.FOLDED).any()
+    assert fold_pixels(plain) == 0 and fold_pixels(marked) > 50
+    # The per-vertex status array gives the same picture.
+    same = vpffd.render((X, mesh.faces), camera=cam, size=(160, 120), folds=status)
+    assert np.array_equal(same, marked)
+    with pytest.raises(vpffd.InvalidInputError, match="rest_vertices"):
+        vpffd.render((X, mesh.faces), camera=cam, size=(160, 120), folds=rep)

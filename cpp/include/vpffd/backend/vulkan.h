@@ -54,7 +54,7 @@
 #include <vector>
 
 #include "vpffd/correction/options.h"
-#include "vpffd/ffd/deformer.h"
+#include "vpffd/frame/deformer.h"
 #include "vpffd/lattice/embed.h"
 #include "vpffd/lattice/lattice.h"
 

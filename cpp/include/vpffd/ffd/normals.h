@@ -17,7 +17,7 @@
 #include "vpffd/core/check.h"
 #include "vpffd/core/parallel.h"
 #include "vpffd/core/types.h"
-#include "vpffd/ffd/deformer.h"
+#include "vpffd/ffd/points.h"
 #include "vpffd/mesh/validate.h"
 
 namespace vpffd {

@@ -17,7 +17,7 @@
 
 #include "vpffd/core/types.h"
 #include "vpffd/mesh/validate.h"
-#include "vpffd/volume/volume.h"
+#include "vpffd/mesh/volume.h"
 
 namespace vpffd {
 

@@ -12,7 +12,7 @@
 #include "vpffd/ffd/kernels.h"
 #include "vpffd/mesh/validate.h"
 #include "vpffd/sparse/spmv.h"
-#include "vpffd/volume/volume.h"
+#include "vpffd/mesh/volume.h"
 
 namespace vpffd {
 

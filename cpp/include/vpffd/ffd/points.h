@@ -1,0 +1,37 @@
+#pragma once
+/// @file points.h
+/// The FFD of arbitrary points: what the Deformer does for its vertices, for points
+/// that are embedded once and evaluated once (constraint sources, normals by mapped
+/// tangents, lattice.deform_points).
+
+#include "vpffd/core/check.h"
+#include "vpffd/core/parallel.h"
+#include "vpffd/ffd/kernels.h"
+#include "vpffd/lattice/embed.h"
+
+namespace vpffd {
+
+/// Plain FFD of arbitrary points (eq. 1).
+/// @param[in] P  N x 3 control points of lattice L
+/// @param[in] X  #X x 3 rest-space points
+/// @returns #X x 3 deformed points
+inline RowMatrixX3d ffd_points(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& P,
+                               const Eigen::Ref<const RowMatrixX3d>& X, OutsidePolicy policy = OutsidePolicy::Error,
+                               int threads = 0) {
+  validate_lattice(L);
+  VPFFD_CHECK(P.rows() == L.n_control_points(), "ffd_points: ", P.rows(), " control points, the lattice has ",
+              L.n_control_points());
+  VPFFD_CHECK(P.allFinite(), "ffd_points: control points contain NaN or Inf");
+  const BasisTables T = basis_tables(L);
+  const Embedding E = embed(L, X, policy, threads, "point");
+  const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+  RowMatrixX3d out(X.rows(), 3);
+  parallel_range(X.rows(), threads, [&](Index b, Index e) {
+    detail::dispatch_order(T, [&](auto K) {
+      detail::ffd_kernel<decltype(K)::value>(T, E, Px.data(), Py.data(), Pz.data(), out.data(), b, e);
+    });
+  });
+  return out;
+}
+
+}  // namespace vpffd

@@ -1,0 +1,474 @@
+#pragma once
+/// @file deformer.h
+/// The frame layer: from control points to corrected vertices, above ffd/, volume/
+/// and correction/ (docs/architecture.md).
+/// Volume-preserving B-spline FFD of one triangle mesh (Hahmann et al. 2012):
+/// a stateful object that embeds the mesh once and then deforms it for any
+/// number of control point sets (frames).
+///
+/// @code
+///   vpffd::Deformer d(V, F, lattice);
+///   auto r = d.deform(P, {});   // r.vertices, r.volume == d.rest_volume()
+/// @endcode
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "vpffd/correction/options.h"
+#include "vpffd/correction/solve.h"
+#include "vpffd/ffd/basis_matrix.h"
+#include "vpffd/ffd/kernels.h"
+#include "vpffd/ffd/points.h"
+#include "vpffd/ffd/vertex_order.h"
+#include "vpffd/lattice/embed.h"
+#include "vpffd/mesh/validate.h"
+#include "vpffd/volume/coefficients.h"
+#include "vpffd/mesh/volume.h"
+
+namespace vpffd {
+
+
+/// What a frame's options amount to, checked: shared by the CPU and GPU paths so
+/// both accept and refuse exactly the same input.
+struct FramePlan {
+  bool correcting = false;    ///< volume or constraints to correct
+  bool measure = false;       ///< the volume is defined (closed mesh, or allow_open)
+  double target = 0;          ///< target volume
+  VectorXd inv_weight;        ///< N: 1 / weight, 0 for fixed control points
+  Index free_points = 0;      ///< control points with inv_weight > 0 (checked against the conditions)
+  Embedding sources;          ///< the constraint points embedded in the lattice
+  std::vector<SparseVec> rows;  ///< per constraint: its basis row (control index, value)
+};
+
+/// r . x for a sparse row r.
+inline double row_dot(const SparseVec& r, const Eigen::Ref<const VectorXd>& x);
+
+/// Right-hand sides of the point constraints along axis a: target minus where each
+/// constraint point is with control point coordinates `Pa` (earlier steps may have
+/// moved it).
+inline std::vector<double> constraint_rhs(const std::vector<SparseVec>& rows,
+                                          const std::vector<PointConstraint>& constraints, int a,
+                                          const Eigen::Ref<const VectorXd>& Pa);
+
+/// Largest coordinate error of the point constraints for control points `CP` (N x 3).
+inline double constraint_error(const std::vector<SparseVec>& rows, const Eigen::Ref<const RowMatrixX3d>& CP,
+                               const std::vector<PointConstraint>& constraints);
+
+/// The axis steps of a frame with point constraints and no volume row: they do not
+/// depend on the mesh, so every backend solves them on the host with this one loop.
+/// Adds each step's offsets to `res.offsets` (N x 3, zero on entry) and its record to
+/// `res.steps`; the caller moves the vertices by each axis's total.
+/// @throws SolverError as solve_axis_offsets
+inline void constraint_steps(const FramePlan& plan, const Eigen::Ref<const RowMatrixX3d>& P,
+                             const CorrectionOptions& opt, DeformResult& res);
+
+class Deformer {
+ public:
+  /// Embeds the mesh (V, F) in lattice L.
+  /// @param[in] V  #V x 3 rest vertices
+  /// @param[in] F  #F x 3 triangles (indices into V)
+  /// @throws InvalidInputError for a bad mesh, a bad lattice, or vertices outside it
+  Deformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F, Lattice L,
+           OutsidePolicy policy = OutsidePolicy::Error, int threads = 0)
+      : lattice_(std::move(L)), V_(V), F_(F), policy_(policy) {
+    validate_mesh(V_, F_, "Deformer");
+    validate_lattice(lattice_);
+    tables_ = basis_tables(lattice_);
+    {
+      // Frames run in cell order (vertex_order.h); the faces are renumbered to match
+      // and reordered too (below), so face sums round differently from unsorted ones.
+      const Embedding E = embed(lattice_, V_, policy_, threads);
+      order_ = cell_order(tables_, E);
+      rank_ = inverse_order(order_);
+      embedding_ = permute_embedding(E, order_);
+    }
+    // Faces follow their lowest vertex in processing order, so the face pass and
+    // the per-vertex face sums stay local too.
+    face_order_ = face_order(F_, rank_);
+    Fs_.resize(F_.rows(), 3);
+    for (Index f = 0; f < F_.rows(); ++f)
+      for (int c = 0; c < 3; ++c) Fs_(f, c) = rank_[F_(face_order_[f], c)];
+    edges_ = edge_report(F_);
+    adjacency_ = vertex_faces(Fs_, V_.rows());
+    origin_ = 0.5 * (lattice_.box_min + lattice_.box_max);
+    rest_volume_ = signed_volume(V_, F_, origin_, threads);
+    // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
+    // and every volume a frame reports or aims at would be inf or NaN.
+    VPFFD_CHECK(std::isfinite(rest_volume_), "Deformer: the mesh's enclosed volume overflows double precision (",
+                rest_volume_, "; coordinates up to ", V_.cwiseAbs().maxCoeff(),
+                "); scale the mesh to smaller units");
+  }
+
+  Deformer(const Deformer&) = delete;
+  Deformer& operator=(const Deformer&) = delete;
+
+  const Lattice& lattice() const { return lattice_; }
+  const RowMatrixX3d& rest_vertices() const { return V_; }
+  const RowMatrixX3i& faces() const { return F_; }
+  Index n_vertices() const { return V_.rows(); }
+  Index n_faces() const { return F_.rows(); }
+  Index n_control_points() const { return lattice_.n_control_points(); }
+  const EdgeReport& edges() const { return edges_; }
+  bool is_closed() const { return edges_.closed(); }
+  /// Per-vertex basis data in the caller's vertex order (a copy).
+  Embedding embedding() const { return permute_embedding(embedding_, rank_); }
+  /// Processing order of the frames: position -> vertex index (sorted by cell).
+  /// Other backends run in the same order with the three views below.
+  const std::vector<std::int32_t>& processing_order() const { return order_; }
+  /// Per-vertex basis data in processing order.
+  const Embedding& processing_embedding() const { return embedding_; }
+  /// Faces in face_processing_order(), numbered by processing position.
+  const RowMatrixX3i& processing_faces() const { return Fs_; }
+  /// Vertex -> faces lists of processing_faces().
+  const VertexFaces& processing_adjacency() const { return adjacency_; }
+  const BasisTables& tables() const { return tables_; }
+  OutsidePolicy outside_policy() const { return policy_; }
+  /// Reference point of the volume sums (the lattice box centre).
+  const Vector3d& origin() const { return origin_; }
+
+  /// Enclosed volume of the rest mesh. @throws InvalidInputError if it is not
+  /// closed, unless `allow_open` (then: the cone volume from origin()).
+  double rest_volume(bool allow_open = false) const {
+    if (!allow_open) require_closed(edges_, "rest_volume");
+    return rest_volume_;
+  }
+
+  /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
+  /// vertex and face orders, the faces (as given and renumbered), the vertex-face
+  /// lists and the rest vertices (about 150 bytes for a closed mesh, F = 2V).
+  double bytes_per_vertex() const {
+    const double per_int = sizeof(std::int32_t);
+    double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size()) * per_int;
+    bytes += double(order_.size() + rank_.size() + face_order_.size()) * per_int;
+    bytes += double(adjacency_.indptr.size() + adjacency_.faces.size()) * per_int;
+    bytes += double(n_vertices()) * Embedding::bytes_per_point;
+    return bytes / double(n_vertices());
+  }
+
+  /// Plain FFD of the mesh vertices. @param P N x 3 control points. @returns #V x 3
+  RowMatrixX3d ffd(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
+    check_control_points(P, "ffd");
+    RowMatrixX3d Xs(n_vertices(), 3);
+    eval_ffd(P, Xs.data(), threads);
+    return to_caller_order(Xs, threads);
+  }
+
+  /// Jacobians dD/dx at the vertices: #V x 9, row-major 3x3 per vertex.
+  RowMatrixXd jacobians(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
+    check_control_points(P, "jacobians");
+    const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    RowMatrixXd Js(n_vertices(), 9), J(n_vertices(), 9);
+    const Vector3d s = parameter_scale(lattice_);
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      detail::jacobian_kernel(tables_, embedding_, Px.data(), Py.data(), Pz.data(), s, Js.data(), b, e);
+      for (Index i = b; i < e; ++i) J.row(order_[i]) = Js.row(i);
+    });
+    return J;
+  }
+
+  /// #V x N vertex basis matrix: ffd(P) == B * P.
+  CsrMatrix basis_matrix(int threads = 0) const {
+    return vertex_basis_matrix(tables_, permute_embedding(embedding_, rank_), threads);
+  }
+
+  /// Processing order of the faces: position -> face index (the columns of face_matrix()).
+  const std::vector<std::int32_t>& face_processing_order() const { return face_order_; }
+
+  /// The paper's N x F face matrix, built on first use and kept. Its column j
+  /// is face face_processing_order()[j]; see face_matrix_in_face_order().
+  const CsrMatrix& face_matrix(int threads = 0) const {
+    std::call_once(face_matrix_once_, [&] {
+      face_matrix_ = std::make_unique<CsrMatrix>(face_basis_matrix(tables_, embedding_, Fs_, threads));
+    });
+    return *face_matrix_;
+  }
+
+  /// Volume coefficients of `axis` (0, 1, 2) for the current vertices X (#V x 3)
+  /// (for an open mesh: of the cone volume from origin()).
+  AxisCoefficients volume_coefficients(const Eigen::Ref<const RowMatrixX3d>& X, int axis,
+                                       CoefficientMethod method = CoefficientMethod::Traversal,
+                                       int threads = 0) const {
+    VPFFD_CHECK(X.rows() == n_vertices(), "volume_coefficients: X has ", X.rows(), " rows, expected ",
+                n_vertices());
+    VPFFD_CHECK(axis >= 0 && axis < 3, "volume_coefficients: axis ", axis, " not in 0..2");
+    RowMatrixX3d Xs(n_vertices(), 3);
+    for (Index i = 0; i < n_vertices(); ++i) Xs.row(i) = X.row(order_[i]);
+    return coefficients(Xs.data(), axis, method, threads);
+  }
+
+  /// One frame: plain FFD with control points P (N x 3), then the volume
+  /// correction and point constraints of `opt`.
+  /// @throws InvalidInputError for bad options, SolverError when no correction exists
+  DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
+
+  /// Checks P and `opt` and prepares what any backend needs for the frame.
+  /// @throws InvalidInputError with the same messages as deform()
+  FramePlan plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
+
+ private:
+  void check_control_points(const Eigen::Ref<const RowMatrixX3d>& P, const char* where) const {
+    VPFFD_CHECK(P.rows() == n_control_points(), where, ": ", P.rows(), " control points, the lattice has ",
+                n_control_points());
+    VPFFD_CHECK(P.allFinite(), where, ": control points contain NaN or Inf");
+  }
+
+  void eval_ffd(const Eigen::Ref<const RowMatrixX3d>& P, double* out, int threads) const {
+    const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      detail::dispatch_order(tables_, [&](auto K) {
+        detail::ffd_kernel<decltype(K)::value>(tables_, embedding_, Px.data(), Py.data(), Pz.data(), out, b, e);
+      });
+    });
+  }
+
+  /// Rows of X (processing order) back in the caller's vertex order.
+  RowMatrixX3d to_caller_order(const RowMatrixX3d& Xs, int threads) const {
+    RowMatrixX3d X(Xs.rows(), 3);
+    parallel_range(Xs.rows(), threads, [&](Index b, Index e) {
+      for (Index i = b; i < e; ++i) X.row(order_[i]) = Xs.row(i);
+    });
+    return X;
+  }
+
+  void gather(const VectorXd& D, double* X, int axis, int threads) const {
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      detail::dispatch_order(tables_, [&](auto K) {
+        detail::gather_kernel<decltype(K)::value>(tables_, embedding_, D.data(), X, axis, b, e);
+      });
+    });
+  }
+
+  // The paper's matrix holds the projection form, which on an open surface
+  // differs from the cone volume that is measured and kept.
+  void check_method(CoefficientMethod method) const {
+    if (!is_closed())
+      VPFFD_CHECK(method == CoefficientMethod::Traversal,
+                  "deform: method='csr' needs a closed mesh; use method='traversal' with allow_open");
+  }
+
+  AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads) const {
+    if (!is_closed()) {
+      check_method(method);
+      return coefficients_traversal(tables_, embedding_, adjacency_, X, Fs_, axis, origin_, threads, true);
+    }
+    if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, Fs_, axis, origin_, threads);
+    return coefficients_traversal(tables_, embedding_, adjacency_, X, Fs_, axis, origin_, threads);
+  }
+
+  Lattice lattice_;
+  RowMatrixX3d V_;
+  RowMatrixX3i F_;
+  OutsidePolicy policy_;
+  BasisTables tables_;
+  std::vector<std::int32_t> order_;  ///< processing position -> vertex
+  std::vector<std::int32_t> rank_;   ///< vertex -> processing position
+  std::vector<std::int32_t> face_order_;  ///< face processing position -> face
+  Embedding embedding_;              ///< in processing order
+  RowMatrixX3i Fs_;                  ///< faces with processing-order indices
+  EdgeReport edges_;
+  VertexFaces adjacency_;
+  Vector3d origin_;
+  double rest_volume_ = 0;
+  mutable std::once_flag face_matrix_once_;
+  mutable std::unique_ptr<CsrMatrix> face_matrix_;
+};
+
+/// The paper's face matrix with its columns in the mesh's own face order.
+inline CsrMatrix face_matrix_in_face_order(const Deformer& d, int threads = 0) {
+  const CsrMatrix& A = d.face_matrix(threads);
+  const std::vector<std::int32_t>& fo = d.face_processing_order();
+  CsrMatrix B = A;
+  parallel_range(A.rows, threads, [&](Index b, Index e) {
+    std::vector<std::pair<std::int32_t, double>> row;
+    for (Index r = b; r < e; ++r) {
+      row.clear();
+      for (auto p = A.indptr[r]; p < A.indptr[r + 1]; ++p) row.emplace_back(fo[A.indices[p]], A.values[p]);
+      std::sort(row.begin(), row.end());
+      auto p = A.indptr[r];
+      for (const auto& [c, v] : row) {
+        B.indices[p] = c;
+        B.values[p++] = v;
+      }
+    }
+  });
+  return B;
+}
+
+
+inline double row_dot(const SparseVec& r, const Eigen::Ref<const VectorXd>& x) {
+  double s = 0;
+  for (size_t q = 0; q < r.index.size(); ++q) s += r.value[q] * x[r.index[q]];
+  return s;
+}
+
+inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
+  static const char axis_name[3] = {'x', 'y', 'z'};
+  const Index N = n_control_points();
+  check_control_points(P, "deform");
+  FramePlan plan;
+  plan.correcting = opt.preserve_volume || !opt.constraints.empty();
+  if (plan.correcting) VPFFD_CHECK(!opt.axes.empty(), "deform: axes is empty; name at least one of x, y, z");
+  VPFFD_CHECK(opt.rounds >= 1 && opt.rounds <= kMaxRounds, "deform: rounds is ", opt.rounds, "; expected 1..",
+              kMaxRounds);
+  for (size_t i = 0; i < opt.axes.size(); ++i) {
+    VPFFD_CHECK(opt.axes[i] >= 0 && opt.axes[i] < 3, "deform: axis ", opt.axes[i], " not in 0..2");
+    for (size_t j = 0; j < i; ++j)
+      VPFFD_CHECK(opt.axes[j] != opt.axes[i], "deform: axes repeats ", axis_name[opt.axes[i]],
+                  "; name each axis once (rounds repeats them)");
+  }
+  plan.inv_weight = VectorXd::Ones(N);
+  if (opt.weights.size() > 0) {
+    VPFFD_CHECK(opt.weights.size() == N, "deform: ", opt.weights.size(), " weights, expected one per control point (",
+                N, ")");
+    for (Index c = 0; c < N; ++c)
+      VPFFD_CHECK(std::isfinite(opt.weights[c]) && opt.weights[c] > 0 && std::isfinite(1.0 / opt.weights[c]),
+                  "deform: weight ", c, " is ", opt.weights[c],
+                  "; weights must be finite and positive, and not so small that 1/weight overflows "
+                  "(use fixed= to pin control points)");
+    plan.inv_weight = opt.weights.cwiseInverse();
+  }
+  if (!opt.fixed.empty()) {
+    VPFFD_CHECK(Index(opt.fixed.size()) == N, "deform: fixed has ", opt.fixed.size(),
+                " entries, expected one per control point (", N, ")");
+    for (Index c = 0; c < N; ++c)
+      if (opt.fixed[c]) plan.inv_weight[c] = 0.0;
+  }
+  if (opt.preserve_volume && !opt.allow_open) require_closed(edges_, "deform(preserve_volume=True)");
+  plan.measure = is_closed() || opt.allow_open;
+  plan.target = std::isnan(opt.target_volume) ? rest_volume_ : opt.target_volume;
+  VPFFD_CHECK(std::isfinite(plan.target), "deform: target_volume is ", plan.target, "; expected a finite number");
+
+  // Constraint sources: basis rows at their parameters.
+  const size_t nc = opt.constraints.size();
+  plan.rows.resize(nc);
+  RowMatrixX3d pts(static_cast<Index>(nc), 3);
+  for (size_t s = 0; s < nc; ++s) {
+    const PointConstraint& pc = opt.constraints[s];
+    VPFFD_CHECK(pc.target.allFinite(), "deform: constraint ", s, " has a non-finite target");
+    if (pc.vertex >= 0) {
+      VPFFD_CHECK(pc.vertex < n_vertices(), "deform: constraint ", s, " names vertex ", pc.vertex, ", but there are ",
+                  n_vertices(), " vertices");
+      pts.row(s) = V_.row(pc.vertex);
+    } else {
+      VPFFD_CHECK(pc.point.allFinite(), "deform: constraint ", s, " has a non-finite source point");
+      pts.row(s) = pc.point.transpose();
+    }
+  }
+  plan.sources = embed(lattice_, pts, policy_, 1, "constraint point");
+  const int per = tables_.order[0] * tables_.order[1] * tables_.order[2];
+  for (size_t s = 0; s < nc; ++s) {
+    plan.rows[s].index.resize(per);
+    plan.rows[s].value.resize(per);
+    point_basis_entries(tables_, plan.sources, static_cast<Index>(s), plan.rows[s].index.data(),
+                        plan.rows[s].value.data());
+  }
+
+  // A constraint along an axis that is not corrected could only be met by luck.
+  bool corrected[3] = {false, false, false};
+  for (int a : opt.axes) corrected[a] = plan.correcting;
+  const double diag = (lattice_.box_max - lattice_.box_min).norm();
+  for (size_t s = 0; s < nc; ++s)
+    for (int a = 0; a < 3; ++a)
+      if (!corrected[a]) {
+        const double S = row_dot(plan.rows[s], P.col(a));
+        VPFFD_CHECK(std::abs(S - opt.constraints[s].target[a]) <= 1e-9 * diag, "deform: constraint ", s,
+                    " moves its point along ", axis_name[a], " (from ", S, " to ", opt.constraints[s].target[a],
+                    "), but ", axis_name[a], " is not among the corrected axes");
+      }
+
+  // Checks that the first axis step would make: made here so that a frame that
+  // cannot be corrected fails before any work, with the same message on every backend.
+  plan.free_points = count_free_points(plan.inv_weight);
+  if (opt.preserve_volume) check_method(opt.method);
+  if (plan.correcting) check_free_points(opt.preserve_volume, nc, plan.free_points, axis_name[opt.axes[0]]);
+  return plan;
+}
+
+inline std::vector<double> constraint_rhs(const std::vector<SparseVec>& rows,
+                                          const std::vector<PointConstraint>& constraints, int a,
+                                          const Eigen::Ref<const VectorXd>& Pa) {
+  std::vector<double> rhs(rows.size());
+  for (size_t s = 0; s < rows.size(); ++s) rhs[s] = constraints[s].target[a] - row_dot(rows[s], Pa);
+  return rhs;
+}
+
+inline double constraint_error(const std::vector<SparseVec>& rows, const Eigen::Ref<const RowMatrixX3d>& CP,
+                               const std::vector<PointConstraint>& constraints) {
+  double err = 0;
+  for (size_t s = 0; s < rows.size(); ++s)
+    for (int a = 0; a < 3; ++a) err = std::max(err, std::abs(row_dot(rows[s], CP.col(a)) - constraints[s].target[a]));
+  return err;
+}
+
+inline void constraint_steps(const FramePlan& plan, const Eigen::Ref<const RowMatrixX3d>& P,
+                             const CorrectionOptions& opt, DeformResult& res) {
+  static const char axis_name[3] = {'x', 'y', 'z'};
+  const int naxes = static_cast<int>(opt.axes.size());
+  for (int step = 0; step < naxes * opt.rounds; ++step) {
+    const int a = opt.axes[step % naxes];
+    AxisStep info;
+    info.axis = a;
+    const VectorXd Pa = P.col(a) + res.offsets.col(a);
+    const std::vector<double> rhs = constraint_rhs(plan.rows, opt.constraints, a, Pa);
+    const VectorXd delta =
+        solve_axis_offsets(nullptr, 0.0, plan.rows, rhs, plan.inv_weight, axis_name[a], &info.sum_squares);
+    info.max_offset = delta.cwiseAbs().maxCoeff();
+    res.offsets.col(a) += delta;
+    res.steps.push_back(info);
+  }
+}
+
+inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
+  static const char axis_name[3] = {'x', 'y', 'z'};
+  const Index N = n_control_points();
+  const int threads = opt.threads;
+  const FramePlan pl = plan(P, opt);
+  const std::vector<SparseVec>& rows = pl.rows;
+
+  // --- plain FFD -------------------------------------------------------------
+  DeformResult res;
+  res.target_volume = opt.preserve_volume ? pl.target : std::numeric_limits<double>::quiet_NaN();
+  RowMatrixX3d Xs(n_vertices(), 3);  // processing order
+  double* X = Xs.data();
+  eval_ffd(P, X, threads);
+  res.offsets = RowMatrixX3d::Zero(N, 3);
+  // With a volume correction the first axis step measures the plain FFD's volume anyway.
+  if (pl.measure && !(opt.preserve_volume && !opt.axes.empty()))
+    res.volume_before = signed_volume(X, Fs_, origin_, threads);
+
+  // --- axis steps -------------------------------------------------------------
+  if (pl.correcting && !opt.preserve_volume) {
+    // Constraints alone: the host steps, then each axis's total offsets at once.
+    constraint_steps(pl, P, opt, res);
+    for (int a : opt.axes) gather(VectorXd(res.offsets.col(a)), X, a, threads);
+  } else if (pl.correcting) {
+    const int naxes = static_cast<int>(opt.axes.size());
+    const int k = naxes * opt.rounds;
+    for (int step = 0; step < k; ++step) {
+      const int a = opt.axes[step % naxes];
+      AxisStep info;
+      info.axis = a;
+      const AxisCoefficients co = coefficients(X, a, opt.method, threads);
+      info.volume_before = co.volume;
+      if (step == 0) res.volume_before = co.volume;
+      // Equal shares of what is still missing: after the last axis the volume is the target.
+      info.share = (pl.target - co.volume) / (k - step);
+      const VectorXd Pa = P.col(a) + res.offsets.col(a);
+      const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, Pa);
+      const VectorXd delta =
+          solve_axis_offsets(&co.alpha, info.share, rows, rhs, pl.inv_weight, axis_name[a], &info.sum_squares);
+      info.max_offset = delta.cwiseAbs().maxCoeff();
+      res.offsets.col(a) += delta;
+      gather(delta, X, a, threads);
+      res.steps.push_back(info);
+    }
+  }
+  res.control_points = P + res.offsets;
+  if (pl.measure) res.volume = signed_volume(X, Fs_, origin_, threads);
+  res.vertices = to_caller_order(Xs, threads);
+  res.constraint_error = constraint_error(rows, res.control_points, opt.constraints);
+  return res;
+}
+
+}  // namespace vpffd
