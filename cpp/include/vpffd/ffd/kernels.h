@@ -97,9 +97,12 @@ void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, d
         flush();
         block_base = base;
       }
+      // Factored as bu_i (bv_j w bw): K products, then K^2 multiply-adds.
       const KVec<K> wk = wv * kload<K>(bw);
+      KVec<K> t[K];
+      for (int j = 0; j < K; ++j) t[j] = bv[j] * wk;
       for (int i = 0; i < K; ++i)
-        for (int j = 0; j < K; ++j) block[i * K + j] += (bu[i] * bv[j]) * wk;
+        for (int j = 0; j < K; ++j) block[i * K + j] += bu[i] * t[j];
     } else {
       for (int i = 0; i < T.order[0]; ++i)
         for (int j = 0; j < T.order[1]; ++j) {
@@ -120,9 +123,13 @@ VPFFD_ALWAYS_INLINE double gather_value(const BasisTables& T, const Embedding& E
   const Index base = point_basis<K>(T, E, v, bu, bv, bw);
   double s = 0;
   if constexpr (K > 0) {
+    // Factored as sum_i bu_i (sum_j bv_j D_ij.): K^2 + K multiply-adds, no products bu_i bv_j.
     KVec<K> a = KVec<K>::Zero();
-    for (int i = 0; i < K; ++i)
-      for (int j = 0; j < K; ++j) a += (bu[i] * bv[j]) * kload<K>(D + base + i * si + j * sj);
+    for (int i = 0; i < K; ++i) {
+      KVec<K> ai = bv[0] * kload<K>(D + base + i * si);
+      for (int j = 1; j < K; ++j) ai += bv[j] * kload<K>(D + base + i * si + j * sj);
+      a += bu[i] * ai;
+    }
     s = (kload<K>(bw) * a).sum();
   } else {
     for (int i = 0; i < T.order[0]; ++i)
