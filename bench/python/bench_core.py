@@ -3,8 +3,11 @@
 
     .venv/bin/python bench/python/bench_core.py [--repeats 7] [--no-shared] [--no-csr]
 
-Prints a markdown table (medians of --repeats runs, one process, one run) and
-writes bench/results/cpu_<host>.json. The meshes of ../shared/data/meshes are
+Prints a markdown table (medians of --repeats runs, one process, one run), then
+where an xyz frame's time goes (FFD, coefficient passes, solves, gathers, volume,
+reordering: the frame's own per-pass clocks, medians) with the load average, and
+writes bench/results/cpu_<host>.json. For the side-by-side comparison with
+Blender's Lattice modifier see bench_peers.py. The meshes of ../shared/data/meshes are
 used when present; the icospheres are generated in code.
 """
 import argparse

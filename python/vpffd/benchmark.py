@@ -2,7 +2,8 @@
 
 For each mesh: nnz of the paper's N x F matrix (its Table 1), and the median
 times of the plain FFD, one axis correction and the full xyz frame, for the
-``traversal`` and ``csr`` coefficient methods on 1 thread and on all threads.
+``traversal`` and ``csr`` coefficient methods on 1 thread and on all threads;
+and where an xyz frame's time goes (the frame's own per-pass clocks, medians).
 """
 from __future__ import annotations
 
@@ -41,6 +42,22 @@ def median_ms(fn, repeats: int) -> float:
     return 1e3 * float(np.median(t))
 
 
+# The passes of a frame as the core times them (CorrectionOptions::record_timings).
+PASSES = ("plan", "ffd", "coefficients", "solves", "gathers", "volume", "reorder")
+
+
+def frame_breakdown(d: Deformer, P, repeats: int, axes: str = "xyz", method: str = "traversal") -> dict:
+    """Median ms per pass of a frame over ``repeats`` runs (after one warm-up), and of
+    the whole frame ("total"): ffd = plain FFD, coefficients = the weight and scatter
+    passes of every axis step, solves = the closed-form offsets, gathers = the offset
+    fields at the vertices (the last fused with the volume and the reordering),
+    volume = separate volume passes, reorder = the copy to the caller's vertex order."""
+    Pf = d._P(P)
+    runs = [d._d.deform(Pf, axes=axes, method=method, threads=d._threads, record_timings=True)["timings"]
+            for _ in range(repeats + 1)][1:]
+    return {k: float(np.median([r[k + "_ms"] for r in runs])) for k in (*PASSES, "total")}
+
+
 def bench_mesh(name: str, mesh: Mesh, shape=(10, 10, 10), degree=3, repeats=7, with_csr=True) -> list:
     """Rows of the table for one mesh (dicts)."""
     lat = Lattice.around(mesh, shape=shape, degree=degree, padding=0.05)
@@ -67,7 +84,8 @@ def bench_mesh(name: str, mesh: Mesh, shape=(10, 10, 10), degree=3, repeats=7, w
                 xyz_ms=median_ms(lambda: d.deform(P, axes="xyz", method=method), repeats),
                 volume_error=r.volume_error, bytes_per_vertex=d.bytes_per_vertex,
                 csr_nnz=nnz if method == "csr" else None,
-                csr_build_s=build_s if method == "csr" and backend == threads[0][0] else None))
+                csr_build_s=build_s if method == "csr" and backend == threads[0][0] else None,
+                breakdown_ms=frame_breakdown(d, P, repeats, method=method)))
     return rows
 
 
@@ -95,6 +113,18 @@ def format_table(rows: list) -> str:
     return "\n".join(lines)
 
 
+def format_breakdown(rows: list) -> str:
+    """Where an xyz frame's time goes: ms per pass (medians of the frame's own clocks)."""
+    lines = ["| mesh | threads | method | " + " | ".join(PASSES) + " | total | frame / FFD |",
+             "|" + "---|" * (len(PASSES) + 5)]
+    for r in rows:
+        b = r["breakdown_ms"]
+        lines.append(f"| {r['mesh']} | {r['threads']} | {r['method']} | " +
+                     " | ".join(f"{b[k]:.2f}" for k in PASSES) +
+                     f" | {b['total']:.2f} | {b['total'] / b['ffd']:.1f} |")
+    return "\n".join(lines)
+
+
 def run_benchmark(include_shared: bool = True, repeats: int = 7, with_csr: bool = True, out: str | None = None,
                   shape=(10, 10, 10), degree: int = 3, progress=None) -> list:
     """Runs the benchmark, prints the markdown table, optionally writes JSON to ``out``."""
@@ -108,6 +138,8 @@ def run_benchmark(include_shared: bool = True, repeats: int = 7, with_csr: bool 
           f"{os.cpu_count()} cores, lattice {'x'.join(map(str, shape))} degree {degree}, "
           f"median of {repeats} runs (ms); twist 90 deg + squash 0.6")
     print(format_table(rows))
+    print(f"\nWhere an xyz frame goes (ms, medians; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())})")
+    print(format_breakdown(rows))
     if out:
         Path(out).parent.mkdir(parents=True, exist_ok=True)
         Path(out).write_text(json.dumps(dict(machine=platform.uname()._asdict(), cores=os.cpu_count(),

@@ -88,9 +88,12 @@ class Mesh:
 
         Raises vpffd.InvalidInputError for a mesh that is not closed, saying how
         many boundary (or non-manifold, or misoriented) edges it has."""
-        _core.require_closed(self._F, "Mesh.volume")
+        # The faces never change, so their edge report (a sort of 3F edges, the
+        # costly part) is computed once; require_closed only runs to word the error.
+        if not self.is_closed:
+            _core.require_closed(self._F, "Mesh.volume")
         centre = 0.5 * (self._V.min(axis=0) + self._V.max(axis=0))
-        return _core.signed_volume(self._V, self._F, centre)
+        return _core.signed_volume(self._V, self._F, centre, False)  # arrays checked in __init__
 
     def check(self):
         """Defect report: boundary edges and loops, non-manifold edges and vertices,

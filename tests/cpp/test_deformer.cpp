@@ -321,3 +321,179 @@ TEST(Deformer, PlanRefusesWhatTheFirstStepWould) {
   csr.preserve_volume = false;
   EXPECT_NO_THROW(open.plan(P, csr));
 }
+
+// --- the fused frame against the frame written out plainly --------------------
+
+namespace {
+
+// alpha = B^T w for the basis matrix B (#V x N, caller order).
+VectorXd transpose_times(const CsrMatrix& B, const VectorXd& w, Index N) {
+  VectorXd alpha = VectorXd::Zero(N);
+  for (Index v = 0; v < B.rows; ++v)
+    for (auto p = B.indptr[v]; p < B.indptr[v + 1]; ++p) alpha[B.indices[p]] += B.values[p] * w[v];
+  return alpha;
+}
+
+// A volume-preserving frame as the paper writes it, in the caller's vertex order
+// and with nothing fused: per step a face pass (each face's normal component
+// added to its corners, or the cone form's corner terms for an open mesh),
+// alpha = B^T w with the explicit basis matrix, the volume by signed_volume, the
+// closed-form offsets, X += B delta along the axis; the final volume measured
+// again by signed_volume.
+DeformResult plain_frame(const Deformer& D, const RowMatrixX3d& P, const CorrectionOptions& o) {
+  const FramePlan pl = D.plan(P, o);
+  const CsrMatrix B = D.basis_matrix();
+  const RowMatrixX3i& F = D.faces();
+  const Vector3d org = D.origin();
+  const Index N = D.n_control_points();
+  DeformResult r;
+  RowMatrixX3d X = D.ffd(P);
+  r.offsets = RowMatrixX3d::Zero(N, 3);
+  r.volume_before = signed_volume(X, F, org);
+  const int k = static_cast<int>(o.axes.size()) * o.rounds;
+  for (int step = 0; step < k; ++step) {
+    const int a = o.axes[step % o.axes.size()], a1 = (a + 1) % 3, a2 = (a + 2) % 3;
+    VectorXd w = VectorXd::Zero(X.rows());
+    for (Index f = 0; f < F.rows(); ++f) {
+      if (D.is_closed()) {
+        const Vector3d n = (X.row(F(f, 1)) - X.row(F(f, 0))).cross(X.row(F(f, 2)) - X.row(F(f, 0)));
+        for (int c = 0; c < 3; ++c) w[F(f, c)] += n[a] / 6.0;
+      } else {
+        for (int c = 0; c < 3; ++c) {
+          const Vector3d pm = X.row(F(f, (c + 1) % 3)).transpose() - org,
+                         pn = X.row(F(f, (c + 2) % 3)).transpose() - org;
+          w[F(f, c)] += (pm[a1] * pn[a2] - pm[a2] * pn[a1]) / 6.0;
+        }
+      }
+    }
+    const VectorXd alpha = transpose_times(B, w, N);
+    AxisStep info;
+    info.axis = a;
+    info.volume_before = signed_volume(X, F, org);
+    info.share = (pl.target - info.volume_before) / (k - step);
+    const VectorXd Pa = P.col(a) + r.offsets.col(a);
+    const VectorXd delta = solve_axis_offsets(&alpha, info.share, pl.rows, constraint_rhs(pl.rows, o.constraints, a, Pa),
+                                              pl.inv_weight, char('x' + a), &info.sum_squares);
+    r.offsets.col(a) += delta;
+    for (Index v = 0; v < B.rows; ++v)
+      for (auto p = B.indptr[v]; p < B.indptr[v + 1]; ++p) X(v, a) += B.values[p] * delta[B.indices[p]];
+    r.steps.push_back(info);
+  }
+  r.vertices = X;
+  r.volume = signed_volume(X, F, org);
+  return r;
+}
+
+}  // namespace
+
+// Tolerance 1e-13 (relative to the box diagonal for positions, to the largest
+// offset for offsets, to the volume for volumes): both frames compute the same
+// sums in different orders, so each quantity differs by a few hundred roundings
+// at most on these ~650-vertex meshes (sums of <= 2,000 terms of one sign
+// pattern, the small solves well conditioned); 1e-13 is ~450 ulps of slack over
+// double's 2.2e-16 and fails at once if a pass used stale coordinates, a wrong
+// corner, or the wrong weights (errors of order 1e-3 and more).
+TEST(Deformer, FusedFrameEqualsPlainFrame) {
+  const TriMesh m = icosphere(3);
+  std::vector<Index> keep;  // open variant: the top cap removed
+  for (Index f = 0; f < m.F.rows(); ++f)
+    if (m.V(m.F(f, 0), 2) < 0.7 || m.V(m.F(f, 1), 2) < 0.7 || m.V(m.F(f, 2), 2) < 0.7) keep.push_back(f);
+  RowMatrixX3i Fopen(static_cast<Index>(keep.size()), 3);
+  for (size_t i = 0; i < keep.size(); ++i) Fopen.row(static_cast<Index>(i)) = m.F.row(keep[i]);
+  const Lattice L = lattice_around(m.V, {6, 5, 7}, 3);
+  const Index N = L.n_control_points();
+  const RowMatrixX3d P = twist(squashed(L, 0.6), 1.2, 2, Vector3d::Zero());
+  const double diag = (L.box_max - L.box_min).norm();
+  enum Variant { Plain, Weights, Fixed, Constraints, Rounds };
+  for (bool open : {false, true}) {
+    Deformer D(m.V, open ? Fopen : m.F, L);
+    ASSERT_EQ(D.is_closed(), !open);
+    const RowMatrixX3d X = D.ffd(P);
+    for (const char* axes : {"x", "y", "z", "xy", "yx", "xz", "zx", "yz", "xyz", "zyx"})
+      for (Variant variant : {Plain, Weights, Fixed, Constraints, Rounds})
+        for (auto method : {CoefficientMethod::Traversal, CoefficientMethod::Csr})
+          for (int threads : {1, 2}) {
+            if (open && method == CoefficientMethod::Csr) continue;
+            CorrectionOptions o;
+            o.axes = parse_axes(axes);
+            o.method = method;
+            o.threads = threads;
+            o.allow_open = open;
+            if (variant == Weights) o.weights = VectorXd::LinSpaced(N, 0.3, 4.0);
+            if (variant == Fixed) {
+              o.fixed.assign(N, 0);
+              for (Index c = 0; c < N; c += 3) o.fixed[c] = 1;
+            }
+            if (variant == Constraints) {
+              // Targets move only along the corrected axes.
+              Vector3d t = X.row(7).transpose();
+              for (int a : o.axes) t[a] += 0.03;
+              o.constraints.push_back({7, Vector3d::Zero(), t});
+            }
+            if (variant == Rounds) o.rounds = 3;
+            SCOPED_TRACE(::testing::Message() << "open " << open << ", axes " << axes << ", variant " << variant
+                                              << ", method " << int(method) << ", threads " << threads);
+            const DeformResult f = D.deform(P, o);
+            const DeformResult p = plain_frame(D, P, o);
+            EXPECT_LE((f.vertices - p.vertices).cwiseAbs().maxCoeff(), 1e-13 * diag);
+            EXPECT_LE((f.offsets - p.offsets).cwiseAbs().maxCoeff(), 1e-13 * p.offsets.cwiseAbs().maxCoeff());
+            EXPECT_LE(std::abs(f.volume - p.volume), 1e-13 * std::abs(p.volume));
+            EXPECT_LE(std::abs(f.volume_before - p.volume_before), 1e-13 * std::abs(p.volume));
+            ASSERT_EQ(f.steps.size(), p.steps.size());
+            for (size_t s = 0; s < f.steps.size(); ++s) {
+              EXPECT_EQ(f.steps[s].axis, p.steps[s].axis);
+              EXPECT_LE(std::abs(f.steps[s].volume_before - p.steps[s].volume_before), 1e-13 * std::abs(p.volume));
+              EXPECT_LE(std::abs(f.steps[s].sum_squares - p.steps[s].sum_squares), 1e-13 * p.steps[s].sum_squares);
+            }
+            // The measured volume is the target (exactness), and independently measured
+            // from the returned vertices.
+            EXPECT_LE(rel(f.volume, D.rest_volume(open)), 1e-14);
+            EXPECT_LE(std::abs(f.volume - signed_volume(f.vertices, D.faces(), D.origin())), 1e-14 * std::abs(f.volume));
+          }
+  }
+}
+
+// The one-pass coefficients (vertex rings) against the two-pass traversal
+// (face pass, then vertex pass): same sums in another order (see above for 1e-13).
+TEST(Deformer, RingCoefficientsEqualFacePass) {
+  const TriMesh m = icosphere(4);
+  const Lattice L = lattice_around(m.V, {5, 7, 6}, 2);
+  const RowMatrixX3d P = twist(squashed(L, 0.5), 1.0, 2, Vector3d::Zero());
+  for (bool open : {false, true}) {
+    const RowMatrixX3i F = open ? RowMatrixX3i(m.F.topRows(m.F.rows() - 40)) : m.F;
+    Deformer D(m.V, F, L);
+    const BasisTables& T = D.tables();
+    const RowMatrixX3d Xc = D.ffd(P);
+    RowMatrixX3d X(Xc.rows(), 3);  // processing order
+    for (Index i = 0; i < X.rows(); ++i) X.row(i) = Xc.row(D.processing_order()[i]);
+    const VertexRings rings = vertex_rings(D.processing_faces(), X.rows());
+    for (int a = 0; a < 3; ++a) {
+      std::vector<double> w(X.rows());
+      const AxisCoefficients r =
+          coefficients_rings(T, D.processing_embedding(), rings, X.data(), a, D.origin(), 0, open, w.data());
+      const AxisCoefficients t = coefficients_traversal(T, D.processing_embedding(), D.processing_adjacency(),
+                                                        X.data(), D.processing_faces(), a, D.origin(), 0, open);
+      EXPECT_LE((r.alpha - t.alpha).cwiseAbs().maxCoeff(), 1e-13 * t.alpha.cwiseAbs().maxCoeff());
+      EXPECT_LE(std::abs(r.volume - t.volume), 1e-13 * std::abs(t.volume));
+      // The volume is linear in the axis coordinates with these weights.
+      double vol = 0;
+      for (Index v = 0; v < X.rows(); ++v) vol += w[v] * (X(v, a) - D.origin()[a]);
+      EXPECT_LE(std::abs(vol - signed_volume(X, D.processing_faces(), D.origin())), 1e-13 * std::abs(vol));
+    }
+  }
+}
+
+// Timings are filled only when asked for, and add up to at most the total.
+TEST(Deformer, FrameTimings) {
+  const TriMesh m = icosphere(3);
+  const Lattice L = lattice_around(m.V, {5, 5, 5}, 3);
+  Deformer D(m.V, m.F, L);
+  CorrectionOptions o;
+  EXPECT_FALSE(D.deform(squashed(L, 0.5), o).timings.recorded);
+  o.record_timings = true;
+  const FrameTimings t = D.deform(squashed(L, 0.5), o).timings;
+  EXPECT_TRUE(t.recorded);
+  for (double x : {t.plan, t.ffd, t.coefficients, t.solves, t.gathers, t.volume, t.reorder}) EXPECT_GE(x, 0.0);
+  EXPECT_GT(t.ffd + t.coefficients + t.gathers, 0.0);
+  EXPECT_LE(t.plan + t.ffd + t.coefficients + t.solves + t.gathers + t.volume + t.reorder, t.total * (1 + 1e-9));
+}

@@ -82,9 +82,11 @@ void bind_deformer(py::module_& m) {
           [](const Deformer& d, RefV P, bool preserve_volume, const std::string& axes,
              std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
              const PyConstraints& constraints,
-             std::optional<double> target_volume, const std::string& method, int threads, bool allow_open, int rounds) {
-            const CorrectionOptions o = make_options(preserve_volume, axes, std::move(weights), std::move(fixed),
-                                                     constraints, target_volume, method, threads, allow_open, rounds);
+             std::optional<double> target_volume, const std::string& method, int threads, bool allow_open, int rounds,
+             bool record_timings) {
+            CorrectionOptions o = make_options(preserve_volume, axes, std::move(weights), std::move(fixed),
+                                               constraints, target_volume, method, threads, allow_open, rounds);
+            o.record_timings = record_timings;
             DeformResult r;
             {
               py::gil_scoped_release release;
@@ -96,7 +98,7 @@ void bind_deformer(py::module_& m) {
           py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
           py::arg("constraints") = PyConstraints{},
           py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0,
-          py::arg("allow_open") = false, py::arg("rounds") = 1);
+          py::arg("allow_open") = false, py::arg("rounds") = 1, py::arg("record_timings") = false);
 }
 
 }  // namespace vpffd::bindings

@@ -22,12 +22,14 @@ void bind_mesh(py::module_& m) {
       py::arg("faces"));
   m.def(
       "signed_volume",
-      [](RefV V, RefF F, Vector3d origin) {
-        validate_mesh(V, F, "signed_volume");
+      [](RefV V, RefF F, Vector3d origin, bool check) {
+        // Mesh validated its (read-only) arrays once; a serial check per call
+        // would cost as much as the parallel sum.
+        if (check) validate_mesh(V, F, "signed_volume");
         py::gil_scoped_release release;
         return signed_volume(V, F, origin);
       },
-      py::arg("vertices"), py::arg("faces"), py::arg("origin") = Vector3d::Zero());
+      py::arg("vertices"), py::arg("faces"), py::arg("origin") = Vector3d::Zero(), py::arg("check") = true);
   m.def("require_closed", [](RefF F, const char* where) {
     VPFFD_CHECK(F.rows() == 0 || F.minCoeff() >= 0, where, ": negative vertex index");
     require_closed(edge_report(F), where);

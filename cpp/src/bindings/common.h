@@ -52,6 +52,19 @@ inline py::dict result_to_python(DeformResult&& r) {
     steps.append(e);
   }
   d["steps"] = steps;
+  if (r.timings.recorded) {
+    const FrameTimings& t = r.timings;
+    py::dict tm;
+    tm["plan_ms"] = t.plan;
+    tm["ffd_ms"] = t.ffd;
+    tm["coefficients_ms"] = t.coefficients;
+    tm["solves_ms"] = t.solves;
+    tm["gathers_ms"] = t.gathers;
+    tm["volume_ms"] = t.volume;
+    tm["reorder_ms"] = t.reorder;
+    tm["total_ms"] = t.total;
+    d["timings"] = tm;
+  }
   return d;
 }
 

@@ -66,6 +66,18 @@ struct CorrectionOptions {
   /// Correct the volume of a mesh that is not closed. The "volume" of an open
   /// surface is that of the cone from the lattice centre and depends on it.
   bool allow_open = false;
+  /// Fill DeformResult::timings (a clock read per pass; nothing when false).
+  bool record_timings = false;
+};
+
+/// Where a frame's time went, in milliseconds (CorrectionOptions::record_timings).
+/// `coefficients` are the weight + scatter passes (alpha, beta, gamma), `solves`
+/// the closed-form offsets, `gathers` the offset fields at the vertices (the last
+/// one fused with the volume and the reordering), `volume` any separate volume pass,
+/// `reorder` the copy back to the caller's vertex order where it is not fused.
+struct FrameTimings {
+  bool recorded = false;
+  double plan = 0, ffd = 0, coefficients = 0, solves = 0, gathers = 0, volume = 0, reorder = 0, total = 0;
 };
 
 /// What one axis step did.
@@ -86,6 +98,7 @@ struct DeformResult {
   double target_volume = std::numeric_limits<double>::quiet_NaN();
   double constraint_error = 0;  ///< largest |D(u_s) - T| component over the constraints
   std::vector<AxisStep> steps;
+  FrameTimings timings;  ///< filled when CorrectionOptions::record_timings
 };
 
 }  // namespace vpffd

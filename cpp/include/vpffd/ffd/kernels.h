@@ -97,9 +97,12 @@ void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, d
         flush();
         block_base = base;
       }
+      // Factored as bu_i (bv_j w bw): K products, then K^2 multiply-adds.
       const KVec<K> wk = wv * kload<K>(bw);
+      KVec<K> t[K];
+      for (int j = 0; j < K; ++j) t[j] = bv[j] * wk;
       for (int i = 0; i < K; ++i)
-        for (int j = 0; j < K; ++j) block[i * K + j] += (bu[i] * bv[j]) * wk;
+        for (int j = 0; j < K; ++j) block[i * K + j] += bu[i] * t[j];
     } else {
       for (int i = 0; i < T.order[0]; ++i)
         for (int j = 0; j < T.order[1]; ++j) {
@@ -112,6 +115,33 @@ void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, d
   flush();
 }
 
+/// sum_c B_c(u_v) D[c]: an offset field's value at point v.
+template <int K>
+VPFFD_ALWAYS_INLINE double gather_value(const BasisTables& T, const Embedding& E, const double* D, Index v, Index si,
+                                        Index sj) {
+  alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
+  const Index base = point_basis<K>(T, E, v, bu, bv, bw);
+  double s = 0;
+  if constexpr (K > 0) {
+    // Factored as sum_i bu_i (sum_j bv_j D_ij.): K^2 + K multiply-adds, no products bu_i bv_j.
+    KVec<K> a = KVec<K>::Zero();
+    for (int i = 0; i < K; ++i) {
+      KVec<K> ai = bv[0] * kload<K>(D + base + i * si);
+      for (int j = 1; j < K; ++j) ai += bv[j] * kload<K>(D + base + i * si + j * sj);
+      a += bu[i] * ai;
+    }
+    s = (kload<K>(bw) * a).sum();
+  } else {
+    for (int i = 0; i < T.order[0]; ++i)
+      for (int j = 0; j < T.order[1]; ++j) {
+        const double c = bu[i] * bv[j];
+        const double* d = D + base + i * si + j * sj;
+        for (int k = 0; k < T.order[2]; ++k) s += c * bw[k] * d[k];
+      }
+  }
+  return s;
+}
+
 /// out[3 v + axis] += sum_c B_c(u_v) D[c] for v in [b, e): one coordinate of an
 /// offset field. After a correction along one axis only that coordinate moves,
 /// so the corrected mesh is the plain FFD plus one such gather per axis.
@@ -119,25 +149,29 @@ template <int K>
 void gather_kernel(const BasisTables& T, const Embedding& E, const double* D, double* out, int axis, Index b,
                    Index e) {
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
-  alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
+  for (Index v = b; v < e; ++v) out[3 * v + axis] += gather_value<K>(T, E, D, v, si, sj);
+}
+
+/// The last gather of a frame, fused with what follows it: point v moves by the
+/// offset field D along `axis` and is written to row order[v] of `out` (the
+/// caller's order), and the return value is sum_v w[v] (x_v[axis] - o) over
+/// [b, e). With w the weights of this axis (coefficients_rings), which do not
+/// depend on the `axis` coordinates, that sum is the corrected mesh's volume.
+template <int K>
+double gather_final_kernel(const BasisTables& T, const Embedding& E, const double* D, const double* X, int axis,
+                           const double* w, double o, const std::int32_t* order, double* out, Index b, Index e) {
+  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
+  double vsum = 0;
   for (Index v = b; v < e; ++v) {
-    const Index base = point_basis<K>(T, E, v, bu, bv, bw);
-    double s = 0;
-    if constexpr (K > 0) {
-      KVec<K> a = KVec<K>::Zero();
-      for (int i = 0; i < K; ++i)
-        for (int j = 0; j < K; ++j) a += (bu[i] * bv[j]) * kload<K>(D + base + i * si + j * sj);
-      s = (kload<K>(bw) * a).sum();
-    } else {
-      for (int i = 0; i < T.order[0]; ++i)
-        for (int j = 0; j < T.order[1]; ++j) {
-          const double c = bu[i] * bv[j];
-          const double* d = D + base + i * si + j * sj;
-          for (int k = 0; k < T.order[2]; ++k) s += c * bw[k] * d[k];
-        }
-    }
-    out[3 * v + axis] += s;
+    double p[3] = {X[3 * v], X[3 * v + 1], X[3 * v + 2]};
+    p[axis] += gather_value<K>(T, E, D, v, si, sj);
+    vsum += w[v] * (p[axis] - o);
+    double* q = out + 3 * Index(order[v]);
+    q[0] = p[0];
+    q[1] = p[1];
+    q[2] = p[2];
   }
+  return vsum;
 }
 
 /// J[v] = dD/dx at point v as a row-major 3x3 (J[r][c] = d D_r / d x_c), x the

@@ -11,6 +11,7 @@
 ///   auto r = d.deform(P, {});   // r.vertices, r.volume == d.rest_volume()
 /// @endcode
 
+#include <chrono>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -91,6 +92,7 @@ class Deformer {
       for (int c = 0; c < 3; ++c) Fs_(f, c) = rank_[F_(face_order_[f], c)];
     edges_ = edge_report(F_);
     adjacency_ = vertex_faces(Fs_, V_.rows());
+    rings_ = vertex_rings(Fs_, V_.rows());
     origin_ = 0.5 * (lattice_.box_min + lattice_.box_max);
     rest_volume_ = signed_volume(V_, F_, origin_, threads);
     // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
@@ -136,12 +138,14 @@ class Deformer {
 
   /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
   /// vertex and face orders, the faces (as given and renumbered), the vertex-face
-  /// lists and the rest vertices (about 150 bytes for a closed mesh, F = 2V).
+  /// lists, the vertex rings and the rest vertices (about 200 bytes for a closed
+  /// mesh, F = 2V).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size()) * per_int;
     bytes += double(order_.size() + rank_.size() + face_order_.size()) * per_int;
     bytes += double(adjacency_.indptr.size() + adjacency_.faces.size()) * per_int;
+    bytes += double(rings_.indptr.size() + rings_.pairs.size()) * per_int;
     bytes += double(n_vertices()) * Embedding::bytes_per_point;
     return bytes / double(n_vertices());
   }
@@ -239,6 +243,25 @@ class Deformer {
     });
   }
 
+  /// The last gather of a frame (gather_final_kernel): moves X along `axis` by the
+  /// offset field D, writes the vertices to `out` (#V x 3, the caller's order) and
+  /// returns the volume, summed per chunk in chunk order (any thread count, same bits).
+  double gather_final(const VectorXd& D, const double* X, int axis, const double* w, double* out,
+                      int threads) const {
+    const Index nv = n_vertices();
+    const int chunks = chunk_count(nv);
+    std::vector<double> part(chunks, 0.0);
+    parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
+      detail::dispatch_order(tables_, [&](auto K) {
+        part[c] = detail::gather_final_kernel<decltype(K)::value>(tables_, embedding_, D.data(), X, axis, w,
+                                                                   origin_[axis], order_.data(), out, b, e);
+      });
+    });
+    double s = 0;
+    for (double p : part) s += p;
+    return s;
+  }
+
   // The paper's matrix holds the projection form, which on an open surface
   // differs from the cone volume that is measured and kept.
   void check_method(CoefficientMethod method) const {
@@ -247,13 +270,12 @@ class Deformer {
                   "deform: method='csr' needs a closed mesh; use method='traversal' with allow_open");
   }
 
-  AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads) const {
-    if (!is_closed()) {
-      check_method(method);
-      return coefficients_traversal(tables_, embedding_, adjacency_, X, Fs_, axis, origin_, threads, true);
-    }
+  /// `weights` (#V, may be null) receives the traversal's per-vertex weights.
+  AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads,
+                                double* weights = nullptr) const {
+    if (!is_closed()) check_method(method);
     if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, Fs_, axis, origin_, threads);
-    return coefficients_traversal(tables_, embedding_, adjacency_, X, Fs_, axis, origin_, threads);
+    return coefficients_rings(tables_, embedding_, rings_, X, axis, origin_, threads, !is_closed(), weights);
   }
 
   Lattice lattice_;
@@ -268,6 +290,7 @@ class Deformer {
   RowMatrixX3i Fs_;                  ///< faces with processing-order indices
   EdgeReport edges_;
   VertexFaces adjacency_;
+  VertexRings rings_;  ///< of Fs_
   Vector3d origin_;
   double rest_volume_ = 0;
   mutable std::once_flag face_matrix_once_;
@@ -421,35 +444,64 @@ inline void constraint_steps(const FramePlan& plan, const Eigen::Ref<const RowMa
 
 inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
   static const char axis_name[3] = {'x', 'y', 'z'};
+  using Clock = std::chrono::steady_clock;
   const Index N = n_control_points();
   const int threads = opt.threads;
+  DeformResult res;
+  FrameTimings& tm = res.timings;
+  // A clock read per pass when timings are asked for, a branch otherwise.
+  const bool timed = opt.record_timings;
+  Clock::time_point t0{}, t = timed ? Clock::now() : Clock::time_point{};
+  if (timed) t0 = t;
+  auto lap = [&](double& slot) {
+    if (!timed) return;
+    const Clock::time_point now = Clock::now();
+    slot += std::chrono::duration<double, std::milli>(now - t).count();
+    t = now;
+  };
+
   const FramePlan pl = plan(P, opt);
   const std::vector<SparseVec>& rows = pl.rows;
+  lap(tm.plan);
 
   // --- plain FFD -------------------------------------------------------------
-  DeformResult res;
   res.target_volume = opt.preserve_volume ? pl.target : std::numeric_limits<double>::quiet_NaN();
   RowMatrixX3d Xs(n_vertices(), 3);  // processing order
   double* X = Xs.data();
   eval_ffd(P, X, threads);
   res.offsets = RowMatrixX3d::Zero(N, 3);
-  // With a volume correction the first axis step measures the plain FFD's volume anyway.
-  if (pl.measure && !(opt.preserve_volume && !opt.axes.empty()))
-    res.volume_before = signed_volume(X, Fs_, origin_, threads);
+  lap(tm.ffd);
+  bool have_vertices = false;  // res.vertices already written (fused into the last gather)
 
   // --- axis steps -------------------------------------------------------------
-  if (pl.correcting && !opt.preserve_volume) {
+  if (!pl.correcting) {
+    // Nothing moves: one volume is both the before and the after.
+    if (pl.measure) res.volume_before = res.volume = signed_volume(X, Fs_, origin_, threads);
+    lap(tm.volume);
+  } else if (!opt.preserve_volume) {
     // Constraints alone: the host steps, then each axis's total offsets at once.
+    if (pl.measure) res.volume_before = signed_volume(X, Fs_, origin_, threads);
+    lap(tm.volume);
     constraint_steps(pl, P, opt, res);
+    lap(tm.solves);
     for (int a : opt.axes) gather(VectorXd(res.offsets.col(a)), X, a, threads);
-  } else if (pl.correcting) {
+    lap(tm.gathers);
+    if (pl.measure) res.volume = signed_volume(X, Fs_, origin_, threads);
+    lap(tm.volume);
+  } else {
     const int naxes = static_cast<int>(opt.axes.size());
     const int k = naxes * opt.rounds;
+    // The last step's weights: with them the last gather measures the volume
+    // (the volume is linear in that axis's coordinates, V = sum_v (x_v - o) w_v).
+    const bool fused = opt.method == CoefficientMethod::Traversal;
+    std::vector<double> w(fused ? n_vertices() : 0);
     for (int step = 0; step < k; ++step) {
       const int a = opt.axes[step % naxes];
+      const bool last = step == k - 1;
       AxisStep info;
       info.axis = a;
-      const AxisCoefficients co = coefficients(X, a, opt.method, threads);
+      const AxisCoefficients co = coefficients(X, a, opt.method, threads, last && fused ? w.data() : nullptr);
+      lap(tm.coefficients);
       info.volume_before = co.volume;
       if (step == 0) res.volume_before = co.volume;
       // Equal shares of what is still missing: after the last axis the volume is the target.
@@ -460,14 +512,28 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
           solve_axis_offsets(&co.alpha, info.share, rows, rhs, pl.inv_weight, axis_name[a], &info.sum_squares);
       info.max_offset = delta.cwiseAbs().maxCoeff();
       res.offsets.col(a) += delta;
-      gather(delta, X, a, threads);
       res.steps.push_back(info);
+      lap(tm.solves);
+      if (last && fused) {
+        res.vertices.resize(n_vertices(), 3);
+        res.volume = gather_final(delta, X, a, w.data(), res.vertices.data(), threads);
+        have_vertices = true;
+      } else {
+        gather(delta, X, a, threads);
+      }
+      lap(tm.gathers);
     }
+    if (!fused) res.volume = signed_volume(X, Fs_, origin_, threads);
+    lap(tm.volume);
   }
   res.control_points = P + res.offsets;
-  if (pl.measure) res.volume = signed_volume(X, Fs_, origin_, threads);
-  res.vertices = to_caller_order(Xs, threads);
+  if (!have_vertices) res.vertices = to_caller_order(Xs, threads);
+  lap(tm.reorder);
   res.constraint_error = constraint_error(rows, res.control_points, opt.constraints);
+  if (timed) {
+    tm.recorded = true;
+    tm.total = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  }
   return res;
 }
 

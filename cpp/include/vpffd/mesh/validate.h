@@ -97,4 +97,33 @@ inline VertexFaces vertex_faces(const Eigen::Ref<const RowMatrixX3i>& F, Index n
   return a;
 }
 
+/// Per vertex, the other two corners of each face around it in the face's
+/// cyclic order: the face (v, m, n) gives the pair (m, n). Pairs of vertex v are
+/// pairs[2 p], pairs[2 p + 1] for p in [indptr[v], indptr[v+1]), one per corner.
+///
+/// This is what a vertex needs to compute its volume weight alone, (1/6) sum of
+/// ((p_m - p_v) x (p_n - p_v))_axis: no face pass, no per-face buffer, and the
+/// reads are the vertex's own neighbours.
+struct VertexRings {
+  std::vector<std::int32_t> indptr;
+  std::vector<std::int32_t> pairs;
+};
+
+inline VertexRings vertex_rings(const Eigen::Ref<const RowMatrixX3i>& F, Index n_vertices) {
+  VertexRings r;
+  r.indptr.assign(n_vertices + 1, 0);
+  for (Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) ++r.indptr[F(f, c) + 1];
+  for (Index v = 0; v < n_vertices; ++v) r.indptr[v + 1] += r.indptr[v];
+  r.pairs.resize(2 * static_cast<size_t>(r.indptr.back()));
+  std::vector<std::int32_t> fill(r.indptr.begin(), r.indptr.end() - 1);
+  for (Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const size_t p = static_cast<size_t>(fill[F(f, c)]++);
+      r.pairs[2 * p] = F(f, (c + 1) % 3);
+      r.pairs[2 * p + 1] = F(f, (c + 2) % 3);
+    }
+  return r;
+}
+
 }  // namespace vpffd

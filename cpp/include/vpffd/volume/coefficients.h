@@ -22,6 +22,30 @@ struct AxisCoefficients {
   double volume = 0;
 };
 
+namespace detail {
+
+/// alpha = sum of the chunk buffers (N each), added in chunk order.
+inline VectorXd sum_chunks(const std::vector<double>& buf, int chunks, Index N, int threads) {
+  VectorXd alpha(N);
+  parallel_range(N, threads, [&](Index b, Index e) {
+    for (Index r = b; r < e; ++r) {
+      double s = 0;
+      for (int c = 0; c < chunks; ++c) s += buf[static_cast<size_t>(c) * N + r];
+      alpha[r] = s;
+    }
+  });
+  return alpha;
+}
+
+/// Chunks of a vertex scatter: fixed by the vertex count (so results do not
+/// depend on the thread count), and their N-double buffers capped at 64 MB.
+inline int scatter_chunks(Index nv, Index N) {
+  const int max_chunks = static_cast<int>(std::clamp<Index>((Index(64) << 20) / (8 * N), 1, 64));
+  return chunk_count(nv, 8192, max_chunks);
+}
+
+}  // namespace detail
+
 /// O(F + N) single traversal (Section 7): each face's normal component n_f is
 /// computed once; each vertex sums n_f / 6 over its faces (its weight w_v, the
 /// derivative of the volume by its coordinate) and scatters w_v B_c(u_v) into the
@@ -54,9 +78,7 @@ inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embed
   } else {
     face_normal_component(X, F, axis, nf.data(), threads);
   }
-  // Chunk buffers are N doubles each: cap their total at 64 MB for huge lattices.
-  const int max_chunks = static_cast<int>(std::clamp<Index>((Index(64) << 20) / (8 * N), 1, 64));
-  const int chunks = chunk_count(nv, 8192, max_chunks);
+  const int chunks = detail::scatter_chunks(nv, N);
   std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
   std::vector<double> vol(chunks, 0.0);
   const std::int32_t* ip = vf.indptr.data();
@@ -90,14 +112,64 @@ inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embed
     vol[c] = vsum;
   });
   AxisCoefficients out;
-  out.alpha.resize(N);
-  parallel_range(N, threads, [&](Index b, Index e) {
-    for (Index r = b; r < e; ++r) {
-      double s = 0;
-      for (int c = 0; c < chunks; ++c) s += buf[static_cast<size_t>(c) * N + r];
-      out.alpha[r] = s;
-    }
-  });
+  out.alpha = detail::sum_chunks(buf, chunks, N, threads);
+  for (double v : vol) out.volume += v;
+  return out;
+}
+
+
+/// The frame's coefficient pass: coefficients_traversal's result in one pass over
+/// the vertices. Each vertex computes its own weight from its ring (vertex_rings),
+/// w_v = (1/6) sum over its faces (v, m, n) of ((p_m - b) x (p_n - b))_axis, with
+/// b = p_v for a closed mesh (the face's normal component, exactly as the face
+/// pass computes it but from another corner) and b = origin for the cone form;
+/// then scatters w_v B_c(u_v) as coefficients_traversal does. Each face's 2x2
+/// determinant is computed three times, once per corner, which costs less than
+/// writing a per-face buffer and reading it back through the vertex-face lists.
+/// @param[out] weights  if not null, #V: the w_v (the volume is sum_v (x_v - o) w_v
+///                      while only the `axis` coordinates change)
+inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding& E, const VertexRings& rings,
+                                           const double* X, int axis, const Vector3d& origin, int threads = 0,
+                                           bool cone = false, double* weights = nullptr) {
+  const Index nv = E.size();
+  const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
+  const int chunks = detail::scatter_chunks(nv, N);
+  std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
+  std::vector<double> vol(chunks, 0.0);
+  const std::int32_t* ip = rings.indptr.data();
+  const std::int32_t* pr = rings.pairs.data();
+  const double o = origin[axis];
+  // The axis as a compile-time constant: the neighbours' coordinates are then
+  // loads at fixed offsets (this loop is a third of a frame's instructions).
+  auto pass = [&](auto axis_c) {
+    constexpr int ax = decltype(axis_c)::value, a1 = (ax + 1) % 3, a2 = (ax + 2) % 3;
+    parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
+      double vsum = 0;
+      auto weight = [&](Index v) {
+        const double* pv = X + 3 * v;
+        const double b1 = cone ? origin[a1] : pv[a1], b2 = cone ? origin[a2] : pv[a2];
+        double w = 0;
+        for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) {
+          const double* pm = X + 3 * Index(pr[2 * p]);
+          const double* pn = X + 3 * Index(pr[2 * p + 1]);
+          w += (pm[a1] - b1) * (pn[a2] - b2) - (pm[a2] - b2) * (pn[a1] - b1);
+        }
+        w *= (1.0 / 6.0);
+        if (weights) weights[v] = w;
+        vsum += (pv[ax] - o) * w;
+        return w;
+      };
+      detail::dispatch_order(T, [&](auto K) {
+        detail::scatter_kernel<decltype(K)::value>(T, E, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
+      });
+      vol[c] = vsum;
+    });
+  };
+  if (axis == 0) pass(std::integral_constant<int, 0>{});
+  else if (axis == 1) pass(std::integral_constant<int, 1>{});
+  else pass(std::integral_constant<int, 2>{});
+  AxisCoefficients out;
+  out.alpha = detail::sum_chunks(buf, chunks, N, threads);
   for (double v : vol) out.volume += v;
   return out;
 }
