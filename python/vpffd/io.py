@@ -82,7 +82,11 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
     """
     p = _path(path, "load_mesh")
     _require_openmesh("load_mesh")
-    d = _core.read_mesh(p)
+    try:
+        d = _core.read_mesh(p)
+    except MemoryError as e:  # the arrays' conversion to NumPy; C++ turns its own bad_alloc into MeshIOError
+        raise MeshIOError(f"load_mesh: '{p.decode('utf-8', 'backslashreplace')}': out of memory while "
+                          "returning the mesh") from e
     mesh = Mesh(d["vertices"], d["faces"])
     normals = d["normals"]
     if orient:

@@ -237,20 +237,30 @@ std::string check_binary_ply(const std::string& file, const PlyHeader& h, std::u
       return "the file is truncated: the header announces " + std::to_string(e.count) + " '" + printable(e.name) +
              "' records of at least " + std::to_string(least) + " bytes, " + std::to_string(b.left()) +
              " bytes are left";
+    // Per property: value bytes, list-count bytes (0: a scalar), count signed.
+    struct Layout {
+      std::uint64_t size;
+      int count_size;
+      bool count_signed;
+    };
+    std::vector<Layout> layout;
+    for (const auto& p : e.props)
+      layout.push_back({static_cast<std::uint64_t>(ply_type_size(p.type)), p.list() ? ply_type_size(p.count_type) : 0,
+                        p.list() && p.count_type.find('u') == std::string::npos});
     for (std::uint64_t r = 0; r < e.count; ++r)
-      for (const auto& p : e.props) {
-        if (!p.list()) {
-          b.skip(static_cast<std::uint64_t>(ply_type_size(p.type)));
+      for (std::size_t j = 0; j < layout.size(); ++j) {
+        const Layout& p = layout[j];
+        if (p.count_size == 0) {
+          b.skip(p.size);
           continue;
         }
         std::uint64_t k = 0;
-        if (!b.uint(ply_type_size(p.count_type), k))
+        if (!b.uint(p.count_size, k))
           return "the file is truncated inside " + printable(e.name) + " " + std::to_string(r);
         // A signed count with its top bit set is negative.
-        const int cs = ply_type_size(p.count_type);
-        if (p.count_type.find('u') == std::string::npos && (k >> (8 * cs - 1)) & 1)
+        if (p.count_signed && (k >> (8 * p.count_size - 1)) & 1)
           return printable(e.name) + " " + std::to_string(r) + ": negative list length";
-        if (!b.skip(times(k, static_cast<std::uint64_t>(ply_type_size(p.type)))))
+        if (!b.skip(times(k, p.size)))
           return "the file is truncated or corrupt: " + printable(e.name) + " " + std::to_string(r) + " has a list of " +
                  std::to_string(k) + " values, " + std::to_string(b.left()) + " bytes are left";
       }
