@@ -14,4 +14,5 @@ cmake -S examples/cpp -B build/example -G Ninja -DCMAKE_PREFIX_PATH="$PWD/build/
 cmake --build build/example
 build/example/squash_sphere
 if [ -x build/example/gpu_frame ]; then build/example/gpu_frame; fi
+if [ -x build/example/mesh_file ]; then build/example/mesh_file; fi
 python -m pytest tests/python -q "$@"

@@ -21,12 +21,16 @@ BackendUnavailableError = _core.BackendUnavailableError
 FORMATS = tuple(_core.mesh_formats()) if _core.has_openmesh else ()
 
 
-def _path(path, where: str) -> str:
-    if isinstance(path, bytes):
-        path = os.fsdecode(path)
-    if not isinstance(path, (str, os.PathLike)):
-        raise TypeError(f"{where}: expected a file name (str or os.PathLike), got {type(path).__name__}")
-    return os.fspath(path)
+def _path(path, where: str) -> bytes:
+    """The file name as the bytes the OS gets: str, bytes or os.PathLike, any name the OS allows.
+
+    A str is encoded like ``open()`` does (``os.fsencode``: UTF-8 with surrogate
+    escapes, so names that are not UTF-8 survive ``os.listdir`` and back); an
+    embedded NUL byte reaches C++, which refuses it with a MeshIOError.
+    """
+    if not isinstance(path, (str, bytes, os.PathLike)):
+        raise TypeError(f"{where}: expected a file name (str, bytes or os.PathLike), got {type(path).__name__}")
+    return os.fsencode(path)
 
 
 def _require_openmesh(where: str) -> None:
@@ -49,8 +53,9 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         ``.obj``, ``.off``, ``.ply``, ``.stl`` or ``.om``, optionally followed by ``.gz``.
+        Any name the OS allows (bytes that are not UTF-8 included).
     orient : bool
         make the winding consistent and turn closed components outward
         (``Mesh.oriented``), e.g. for a mesh whose normals point inside.
@@ -67,14 +72,21 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
         the file is missing, empty, truncated, not a mesh, has no faces, an
         unknown extension, a non-finite coordinate (``nan``, ``inf``, ``1e400``),
         a line of an ASCII file that does not parse completely or has the wrong
-        number of values, ...: the message names the file, the problem and, for
+        number of values, counts in a header that the file's size cannot hold,
+        corrupt connectivity, a .gz that decompresses to more than the memory
+        allows, a NUL byte in the name, ...: the message names the file (bytes
+        that are not printable UTF-8 written as ``\\xNN``), the problem and, for
         ASCII files, the line.
     TypeError
         ``path`` is not a file name.
     """
     p = _path(path, "load_mesh")
     _require_openmesh("load_mesh")
-    d = _core.read_mesh(p)
+    try:
+        d = _core.read_mesh(p)
+    except MemoryError as e:  # the arrays' conversion to NumPy; C++ turns its own bad_alloc into MeshIOError
+        raise MeshIOError(f"load_mesh: '{p.decode('utf-8', 'backslashreplace')}': out of memory while "
+                          "returning the mesh") from e
     mesh = Mesh(d["vertices"], d["faces"])
     normals = d["normals"]
     if orient:
@@ -90,7 +102,7 @@ def save_mesh(path, mesh, normals=None, binary=None, precision: int = 17) -> Non
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         ``.obj``, ``.off``, ``.ply``, ``.stl`` or ``.om`` (no ``.gz``).
     mesh : Mesh, (vertices, faces) pair, or any object with vertices and faces
     normals : (V, 3) array_like, optional
@@ -134,6 +146,6 @@ def save_mesh(path, mesh, normals=None, binary=None, precision: int = 17) -> Non
         raise TypeError(f"save_mesh: precision must be an integer, got {type(precision).__name__}")
     r = _core.write_mesh(p, m.vertices, m.faces, N, b, int(precision))
     if r["split_faces"] or r["dropped_faces"]:
-        warnings.warn(f"save_mesh: '{p}': {r['split_faces']} non-manifold faces were written with their own copies "
+        warnings.warn(f"save_mesh: '{p.decode('utf-8', 'backslashreplace')}': {r['split_faces']} non-manifold faces were written with their own copies "
                       f"of their vertices, {r['dropped_faces']} faces with a repeated vertex index were dropped",
                       stacklevel=2)

@@ -12,12 +12,17 @@
 /// a repeated corner ("f 1 1 1", "3 0 0 0") is kept as stored, like any other;
 /// faces with fewer than 3 corners are counted in MeshData::skipped_faces.
 ///
-/// ASCII OFF and OBJ are parsed by vpffd itself, and ASCII PLY and STL are
-/// checked before OpenMesh reads them: OpenMesh's stream readers turn "nan",
-/// "1 x 0" or a file shorter than its header says into vertices at 0 and faces
-/// [0, 0, 0] without an error. Anything that is not a finite number where a
-/// coordinate belongs, a line with too few or too many values, or counts that do
-/// not match the file is a MeshIOError naming the line.
+/// OBJ, OFF (ASCII and binary) and OM are read by vpffd itself; PLY and STL are
+/// checked through the whole file before OpenMesh reads them (OpenMesh's readers
+/// turn "nan", "1 x 0" or a short file into vertices at 0 without an error, trust
+/// header counts, and abort or loop on some corrupt headers). Every reader
+/// survives arbitrary bytes: counts are checked against the file size before
+/// anything is allocated for them, face indices against the vertex count, and a
+/// .gz may decompress to at most 1/16 of the memory the process can still get.
+/// Anything that is not a finite number where a coordinate belongs, a line with
+/// too few or too many values, or counts that do not match the file is a
+/// MeshIOError naming the file (non-UTF-8 bytes written as \xNN) and, for text,
+/// the line. cpp/src/io/mesh_io.cpp says which part does what.
 ///
 /// This header has no OpenMesh include: the implementation lives in cpp/src/io.
 
@@ -41,13 +46,15 @@ struct MeshData {
 };
 
 /// Reads a triangle mesh.
-/// @param[in] path  file name; its extension (.obj .off .ply .stl .om, optionally
-///                  followed by .gz) chooses the reader
+/// @param[in] path  file name as the OS's bytes (any bytes but NUL); its extension
+///                  (.obj .off .ply .stl .om, optionally followed by .gz) chooses the reader
 /// @returns vertices, triangles and, when present, vertex normals
 /// @throws MeshIOError naming the file and the problem: missing, a directory,
 ///         empty, unknown extension, unreadable, truncated, no faces, face index
 ///         out of range, non-finite coordinates, a malformed line of an ASCII
-///         file (with its line number)
+///         file (with its line number), counts the file cannot hold, corrupt
+///         OM connectivity, a .gz that decompresses beyond the bound, a NUL byte
+///         in the name, not enough memory (never std::bad_alloc)
 MeshData read_mesh(const std::string& path);
 
 /// Options of write_mesh.
