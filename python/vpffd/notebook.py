@@ -20,7 +20,7 @@ _CAPTION_HEIGHT = 16
 
 def _png(image) -> bytes:
     """PNG bytes of an (H, W, 3) uint8 image, through vpffd.save_png."""
-    from .render import save_png
+    from ._png import save_png
     with tempfile.TemporaryDirectory() as d:
         path = os.path.join(d, "repr.png")
         save_png(path, image)
@@ -48,7 +48,7 @@ def picture(mesh, lines, lattice=None, control_points=None, size=SIZE):
     with ``lines``; None when this build has no renderer (no Embree)."""
     if not _core.has_embree:
         return None
-    from .render import render
+    from .rendering import render
     image = render(mesh, lattice=lattice, control_points=control_points, size=size, point_radius=2.0)
     return _png(_captioned(image, lines))
 

@@ -3,6 +3,7 @@
 
 #include "vpffd/render/raycast.h"
 
+#include <Eigen/Geometry>  // cross products (Core alone declares them without a definition)
 #include <embree3/rtcore.h>
 
 #include <algorithm>

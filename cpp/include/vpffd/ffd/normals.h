@@ -14,6 +14,8 @@
 
 #include <cmath>
 
+#include <Eigen/Geometry>  // cross products (Core alone declares them without a definition)
+
 #include "vpffd/core/check.h"
 #include "vpffd/core/parallel.h"
 #include "vpffd/core/types.h"

@@ -15,6 +15,8 @@
 #include <numeric>
 #include <vector>
 
+#include <Eigen/Geometry>  // cross products (Core alone declares them without a definition)
+
 #include "vpffd/core/types.h"
 #include "vpffd/mesh/validate.h"
 #include "vpffd/mesh/volume.h"
