@@ -25,6 +25,7 @@ from . import edits, shapes
 from .deformer import Deformer, DeformResult, available_backends, vulkan_devices
 from .edits import bend, scale, squash, taper, twist
 from .lattice import Lattice
+from .multires import Multires, MultiresDeformer, MultiresResult, RBFDeformer
 from .mesh import Mesh
 from . import check, normals, render, io
 from .check import MeshCheck
@@ -46,4 +47,5 @@ __all__ = [
     "InvalidInputError", "SolverError", "MeshIOError", "BackendUnavailableError", "DeviceError",
     "load_mesh", "save_mesh", "MeshCheck", "check", "render", "save_png", "load_png", "Camera", "Hit", "Scene",
     "pick", "pick_pixel", "vertex_normals", "deformed_normals", "normals", "io",
+    "Multires", "MultiresDeformer", "MultiresResult", "RBFDeformer",
 ]
