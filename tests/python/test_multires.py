@@ -272,3 +272,23 @@ def test_real_scan(shared_meshes):
     print(f"bunny moderate edit: mean {mean:.3f} deg, max {mx:.2f} deg over {n} vertices; "
           f"extrapolated {mr.extrapolated_fraction:.3f}, residual max {mr.residuals.max():.3g}")
     assert mean <= 2.0
+
+
+@pytest.mark.skipif(not vpffd._core.has_openmesh, reason="mesh files need OpenMesh")
+def test_cli_deform_multires(tmp_path, capsys):
+    from vpffd.__main__ import main
+    src = vpffd.shapes.bumpy_sphere(3)
+    vpffd.save_mesh(tmp_path / "in.ply", src)
+    assert main(["deform", str(tmp_path / "in.ply"), str(tmp_path / "out.ply"), "--multires", "5", "--twist", "40",
+                 "--lattice", "6x6x6"]) == 0
+    out = capsys.readouterr().out
+    assert "Multires(" in out and "base volume kept" in out
+    m = vpffd.load_mesh(tmp_path / "out.ply")
+    assert m.n_vertices == src.n_vertices
+    mr = vpffd.Multires(src, smoothing=5)
+    lat = vpffd.Lattice.around(src, shape=6)
+    want = vpffd.MultiresDeformer(mr, lat).deform(vpffd.twist(lat.control_points, 40)).vertices
+    # The file stores float32 (PLY): 2^-24 relative to coordinates of size ~1.
+    np.testing.assert_allclose(m.vertices, want, atol=2e-7 * _diag(want))
+    assert main(["deform", str(tmp_path / "in.ply"), str(tmp_path / "o.ply"), "--multires", "0"]) == 2
+    assert "--multires" in capsys.readouterr().err
