@@ -132,7 +132,8 @@ def main():
           "p95 deg | max deg |")
     print("|---|---:|---|---:|---:|---:|---:|---:|---:|")
     for name, mesh in acc_meshes:
-        for r in accuracy(name, mesh, (3, 10, 30), (a.lattice,) * 3):
+        smoothings = (a.smoothing,) if name == "dragon" else (3, 10, 30)
+        for r in accuracy(name, mesh, smoothings, (a.lattice,) * 3):
             print(f"| {r[0]} | {r[1]:g} | {r[2]} | {r[3]:.2e} | {100 * r[4]:.1f} % | {r[5]:.2e} | {r[6]:.3f} | "
                   f"{r[7]:.2f} | {r[8]:.1f} |", flush=True)
     print(f"\nload average at the end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")

@@ -157,14 +157,18 @@ def test_volume_base_is_exact_and_fine_is_reported(mr_sphere, sphere):
     d = vpffd.Deformer(sphere, lat)
     ref = d.deform(P)
     np.testing.assert_allclose(rf.control_points, ref.control_points, rtol=0, atol=1e-12 * _diag(sphere.vertices))
-    # ...and the rebuilt mesh follows the deformed base normals, not the FFD of its
-    # vertices, so its volume is close but not exact: both modes remove nearly all of
-    # the plain FFD's change (a squash by 0.6 loses ~40 %).
+    # ...but the rebuilt mesh is not the FFD of its vertices: the displacements keep
+    # their length d_i along the deformed base normal, where the FFD would scale them
+    # by J. The two differ only inside the shell between base and fine mesh, whose
+    # volume is a fraction f of the whole; to first order that shell's volume changes
+    # by the plain FFD's relative change e, so either mode's error is about f * e at
+    # most (1.5 f e allows for the second-order terms of a 40 % strain).
+    f = abs(sphere.volume - mr_sphere.base.volume) / sphere.volume
     print(f"fine-mesh volume error: plain {plain.volume_error:.3e}, volume='base' {rb.volume_error:.3e}, "
-          f"volume='fine' {rf.volume_error:.3e}")
+          f"volume='fine' {rf.volume_error:.3e} (shell fraction {f:.3f})")
     assert plain.volume_error > 0.2
     for r in (rb, rf):
-        assert np.isfinite(r.volume_error) and r.volume_error < 0.05 * plain.volume_error
+        assert np.isfinite(r.volume_error) and r.volume_error < 1.5 * f * plain.volume_error
     np.testing.assert_allclose(np.linalg.norm(rb.normals, axis=1), 1.0, atol=1e-14)
 
 
@@ -285,6 +289,9 @@ def test_cli_deform_multires(tmp_path, capsys):
     assert "Multires(" in out and "base volume kept" in out
     m = vpffd.load_mesh(tmp_path / "out.ply")
     assert m.n_vertices == src.n_vertices
+    # The CLI decomposed the mesh as stored (float32): so must the reference, since
+    # near-ties between foot triangles can fall either way under that rounding.
+    src = vpffd.load_mesh(tmp_path / "in.ply")
     mr = vpffd.Multires(src, smoothing=5)
     lat = vpffd.Lattice.around(src, shape=6)
     want = vpffd.MultiresDeformer(mr, lat).deform(vpffd.twist(lat.control_points, 40)).vertices
