@@ -115,6 +115,10 @@ class Multires:
         self.residuals = _read_only(self._m.residuals)
         self.rest_normals = _read_only(self._m.rest_normals)
         self.extrapolated_fraction = float(self._m.extrapolated_fraction)
+        # Reference volumes of every frame's report, measured once (NaN when open).
+        closed = self.mesh.is_closed
+        self._rest_volumes = (_volume(self.mesh.vertices, self.mesh.faces, closed),
+                              _volume(self.base.vertices, self.mesh.faces, closed), closed)
 
     @property
     def n_vertices(self) -> int:
@@ -179,9 +183,8 @@ def _result(mr: Multires, X, N, B, normals, control_points, volume_mode, backend
     F = mr.mesh.faces
     if normals == "exact":
         N = _core.vertex_normals(X, F)
-    closed = mr.mesh.is_closed
-    vol, rest = _volume(X, F, closed), _volume(mr.mesh.vertices, F, closed)
-    bvol, brest = _volume(B, F, closed), _volume(mr.base.vertices, F, closed)
+    rest, brest, closed = mr._rest_volumes
+    vol, bvol = _volume(X, F, closed), _volume(B, F, closed)
     return MultiresResult(vertices=X, normals=N, base_vertices=B, control_points=control_points, volume=vol,
                           rest_volume=rest, volume_error=_relative(vol, rest), base_volume=bvol,
                           base_rest_volume=brest, base_volume_error=_relative(bvol, brest), volume_mode=volume_mode,
