@@ -7,6 +7,7 @@
 
 #include <memory>
 
+#include "vpffd/ffd/kernels.h"
 #include "vpffd/ffd/vertex_basis.h"
 #include "vpffd/lattice/embed.h"
 #include "vpffd/multires/reconstruct.h"
@@ -16,8 +17,8 @@ namespace vpffd {
 namespace detail {
 
 /// D(x) and J = dD/dx (row-major, J[3 r + c] = dD_r/dx_c) at embedded point v.
-/// The tensor sum is nested (k, then j, then i) so that each level combines the
-/// partial sums of the level inside with values or derivatives of one axis.
+/// Mixed orders (K = 0) nest the tensor sum (k, then j, then i), each level
+/// combining the partial sums inside with values or derivatives of one axis.
 template <int K>
 VPFFD_ALWAYS_INLINE void ffd_value_jacobian(const BasisTables& T, const Embedding& E, const double* const P[3],
                                             const Vector3d& du_dx, Index v, Vector3d& value, Matrix3d& J) {
@@ -34,6 +35,36 @@ VPFFD_ALWAYS_INLINE void ffd_value_jacobian(const BasisTables& T, const Embeddin
   }
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
   const Index base = (first[0] * T.dims[1] + first[1]) * T.dims[2] + first[2];
+  if constexpr (K > 0) {
+    // As ffd_kernel: K-wide rows along k (contiguous control points) accumulated
+    // with the (i, j) weights of the value and of d/dx, d/dy, then reduced against
+    // the k basis (values, and derivatives for d/dz) once per point.
+    KVec<K> val[3], gx[3], gy[3];
+    for (int q = 0; q < 3; ++q) {
+      val[q].setZero();
+      gx[q].setZero();
+      gy[q].setZero();
+    }
+    for (int i = 0; i < K; ++i)
+      for (int j = 0; j < K; ++j) {
+        const double c = N[0][i] * N[1][j], cx = dN[0][i] * N[1][j], cy = N[0][i] * dN[1][j];
+        const Index row = base + i * si + j * sj;
+        for (int q = 0; q < 3; ++q) {
+          const KVec<K> p = kload<K>(P[q] + row);
+          val[q] += c * p;
+          gx[q] += cx * p;
+          gy[q] += cy * p;
+        }
+      }
+    const KVec<K> n2 = kload<K>(N[2]), d2 = kload<K>(dN[2]);
+    for (int q = 0; q < 3; ++q) {
+      value[q] = (n2 * val[q]).sum();
+      J(q, 0) = (n2 * gx[q]).sum();
+      J(q, 1) = (n2 * gy[q]).sum();
+      J(q, 2) = (d2 * val[q]).sum();
+    }
+    return;
+  }
   Vector3d val = Vector3d::Zero(), gu = Vector3d::Zero(), gv = Vector3d::Zero(), gw = Vector3d::Zero();
   for (int i = 0; i < ord[0]; ++i) {
     Vector3d c = Vector3d::Zero(), cv = Vector3d::Zero(), cw = Vector3d::Zero();
