@@ -25,6 +25,7 @@ from . import edits, shapes
 from .deformer import Deformer, DeformResult, available_backends, vulkan_devices
 from .edits import bend, scale, squash, taper, twist
 from .lattice import Lattice
+from .multires import Multires, MultiresDeformer, MultiresResult, RBFDeformer
 from .mesh import Mesh
 from . import check, normals, io, folds, local_weights
 from .folds import FoldError, FoldReport, FoldWarning, check_folds
@@ -52,4 +53,5 @@ __all__ = [
     "pick", "pick_pixel", "vertex_normals", "deformed_normals", "normals", "io",
     "render_comparison", "local_volume_change", "guess_up_axis",
     "folds", "check_folds", "FoldReport", "FoldError", "FoldWarning", "local_weights",
+    "Multires", "MultiresDeformer", "MultiresResult", "RBFDeformer",
 ]

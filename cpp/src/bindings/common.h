@@ -100,5 +100,6 @@ void bind_embree(py::module_& m);  // bind_embree.cpp, with vpffd::embree
 void bind_check(py::module_& m);   // bind_check.cpp: mesh defect report, orientation
 void bind_normals(py::module_& m); // bind_normals.cpp: rest and deformed normals
 void bind_folds(py::module_& m);   // bind_folds.cpp: fold-over certification
+void bind_multires(py::module_& m); // bind_multires.cpp: multiresolution decomposition, FFD and RBF
 
 }  // namespace vpffd::bindings

@@ -23,6 +23,7 @@ PYBIND11_MODULE(_core, m) {
   vpffd::bindings::bind_check(m);
   vpffd::bindings::bind_normals(m);
   vpffd::bindings::bind_folds(m);
+  vpffd::bindings::bind_multires(m);
 
   // Optional parts: each flag tells Python whether the part was built.
 #ifdef VPFFD_HAS_VULKAN

@@ -1,0 +1,143 @@
+#!/usr/bin/env python
+"""CPU benchmark of multiresolution frames (issue 12, paper 002's Table II).
+
+    .venv/bin/python bench/python/bench_multires.py [--sizes 6 7 8] [--repeats 5] [--no-shared]
+
+Per mesh and thread count (1 and 2), median frame times of
+  * plain FFD of the fine mesh (positions only: Deformer.ffd),
+  * plain FFD with exact deformed normals (positions + cof(J) n per vertex),
+  * the multiresolution reconstruction (FFD and analytic Jacobian at the foot
+    point, p' = S' + d N_S', approximate normal of eqs. 6-7),
+in million triangles per second, and the bytes per vertex each reads. Then the
+approximate-normal error table (mean / 95th percentile / max angle to the normals
+of the deformed fine mesh) for a moderate edit and two extreme ones, at several
+smoothing strengths. Bumpy icospheres are generated in code; the dragon is read
+from ../shared/data/meshes when present. The load average is printed: the
+figures are ratios within one run on one machine.
+"""
+import argparse
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+import vpffd
+from vpffd import _core
+from vpffd.normals import angles_deg
+
+SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "meshes"
+
+
+def median_ms(f, repeats):
+    f()  # warm-up
+    t = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        f()
+        t.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(t))
+
+
+def meshes(sizes, shared):
+    for s in sizes:
+        yield f"bumpy ico{s}", vpffd.shapes.bumpy_sphere(s)
+    if shared and (SHARED / "dragon_vrip_welded.ply.gz").exists():
+        yield "dragon", vpffd.load_mesh(SHARED / "dragon_vrip_welded.ply.gz")
+
+
+def pull_four(lat, frac=0.2):
+    P = lat.control_points.copy()
+    ext = lat.box_max - lat.box_min
+    nu, nv, nw, _ = P.shape
+    for j, k in [(nv // 2 - 1, nw // 2 - 1), (nv // 2, nw // 2 - 1), (nv // 2 - 1, nw // 2), (nv // 2, nw // 2)]:
+        P[nu - 2, j, k, 0] += frac * ext[0]
+    return P
+
+
+def speed(name, mesh, smoothing, shape, repeats):
+    t0 = time.perf_counter()
+    mr = vpffd.Multires(mesh, smoothing=smoothing)
+    t_dec = time.perf_counter() - t0
+    lat = vpffd.Lattice.around(mesh, shape=shape)
+    P = np.ascontiguousarray(vpffd.twist(lat.control_points, 90).reshape(-1, 3))
+    rows = []
+    N0 = vpffd.vertex_normals(mesh)
+    for threads in (1, 2):
+        d = vpffd.Deformer(mesh, lat, backend="openmp", threads=threads)
+        md = vpffd.MultiresDeformer(mr, lat, backend="openmp", threads=threads)
+        t_ffd = median_ms(lambda: d._d.ffd(P, threads), repeats)
+        t_ffdn = median_ms(lambda: (d._d.ffd(P, threads),
+                                    _core.deformed_normals_exact(d._d.jacobians(P, threads), N0, threads)), repeats)
+        t_mr = median_ms(lambda: md._ffd.deform(P, threads), repeats)
+        t_vol = median_ms(lambda: d.deform(P), repeats)
+        t_mrvol = median_ms(lambda: md.deform(P, volume="base"), repeats)
+        mt = mesh.n_faces / 1e6
+        rows.append((name, mesh.n_vertices, mesh.n_faces, threads, t_ffd, t_ffdn, t_mr, t_vol, t_mrvol,
+                     mt / (t_ffd / 1e3), mt / (t_ffdn / 1e3), mt / (t_mr / 1e3)))
+    return mr, t_dec, rows
+
+
+def accuracy(name, mesh, smoothings, shape):
+    out = []
+    lat = vpffd.Lattice.around(mesh, shape=shape)
+    edits = {"pull 4 (moderate)": pull_four(lat), "bend 90": vpffd.bend(lat.control_points, 90, axis="z"),
+             "twist 360": vpffd.twist(lat.control_points, 360, axis="z")}
+    diag = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
+    for s in smoothings:
+        mr = vpffd.Multires(mesh, smoothing=s)
+        md = vpffd.MultiresDeformer(mr, lat)
+        for en, P in edits.items():
+            ra = md.deform(P, preserve_volume=False)
+            nx = vpffd.vertex_normals(vpffd.Mesh(ra.vertices, mesh.faces))
+            moved = np.linalg.norm(ra.vertices - mesh.vertices, axis=1) > 1e-6 * diag
+            a = angles_deg(ra.normals, nx)[moved]
+            out.append((name, s, en, float(np.abs(mr.displacements).mean() / diag), mr.extrapolated_fraction,
+                        float(mr.residuals.max() / diag), float(a.mean()), float(np.percentile(a, 95)),
+                        float(a.max())))
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sizes", type=int, nargs="*", default=[6, 7, 8], help="icosphere subdivisions (9: 5.2M tri)")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--smoothing", type=float, default=10)
+    ap.add_argument("--lattice", type=int, default=8)
+    ap.add_argument("--no-shared", action="store_true")
+    ap.add_argument("--accuracy-size", type=int, default=5, help="icosphere for the normal-error table")
+    a = ap.parse_args()
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
+          f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f}; "
+          f"lattice {a.lattice}^3 cubic, smoothing {a.smoothing:g}, medians of {a.repeats}")
+    print(f"bytes per vertex a frame reads: plain FFD 36 (embedding) + the vertex; multiresolution "
+          f"{_core.MultiresFFD.frame_bytes_per_vertex} (float64; half in float32); decomposition holds "
+          f"{vpffd.Multires.bytes_per_vertex}")
+    print("\n| mesh | V | F | threads | FFD ms | FFD+normals ms | MR ms | VP-FFD ms | MR+VP(base) ms | "
+          "FFD Mtri/s | FFD+normals Mtri/s | MR Mtri/s | MR / FFD+normals |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    acc_meshes = []
+    for name, mesh in meshes(a.sizes, not a.no_shared):
+        mr, t_dec, rows = speed(name, mesh, a.smoothing, (a.lattice,) * 3, a.repeats)
+        for r in rows:
+            print(f"| {r[0]} | {r[1]:,} | {r[2]:,} | {r[3]} | {r[4]:.1f} | {r[5]:.1f} | {r[6]:.1f} | {r[7]:.1f} | "
+                  f"{r[8]:.1f} | {r[9]:.1f} | {r[10]:.1f} | {r[11]:.1f} | {r[6] / r[5]:.2f} |", flush=True)
+        print(f"  ({name}: decomposition {t_dec:.2f} s; {mr})", flush=True)
+        if name == "dragon":
+            acc_meshes.append((name, mesh))
+    acc_meshes.insert(0, (f"bumpy ico{a.accuracy_size}", vpffd.shapes.bumpy_sphere(a.accuracy_size)))
+    acc_meshes.insert(1, ("bumpy body", vpffd.shapes.bumpy_sphere(a.accuracy_size, stretch=(1, 1, 2.5))))
+    print("\n| mesh | smoothing | edit | mean |d| / diag | extrapolated | max residual / diag | mean deg | "
+          "p95 deg | max deg |")
+    print("|---|---:|---|---:|---:|---:|---:|---:|---:|")
+    for name, mesh in acc_meshes:
+        smoothings = (a.smoothing,) if name == "dragon" else (3, 10, 30)
+        for r in accuracy(name, mesh, smoothings, (a.lattice,) * 3):
+            print(f"| {r[0]} | {r[1]:g} | {r[2]} | {r[3]:.2e} | {100 * r[4]:.1f} % | {r[5]:.2e} | {r[6]:.3f} | "
+                  f"{r[7]:.2f} | {r[8]:.1f} |", flush=True)
+    print(f"\nload average at the end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,179 @@
+#pragma once
+/// @file ffd_map.h
+/// The FFD as a deformer of the base surface (paper 002, Section 6 with an FFD in
+/// place of the RBF): S' = D(S(t_i)), S'_u = J_D S_u, S'_v = J_D S_v, with the
+/// basis values and first derivatives evaluated at each foot point every frame
+/// (the foot point's span and local parameter, 36 bytes, are all it keeps).
+
+#include <memory>
+
+#include "vpffd/ffd/kernels.h"
+#include "vpffd/ffd/vertex_basis.h"
+#include "vpffd/lattice/embed.h"
+#include "vpffd/multires/reconstruct.h"
+
+namespace vpffd {
+
+namespace detail {
+
+/// D(x) and J = dD/dx (row-major, J[3 r + c] = dD_r/dx_c) at embedded point v.
+/// Mixed orders (K = 0) nest the tensor sum (k, then j, then i), each level
+/// combining the partial sums inside with values or derivatives of one axis.
+template <int K>
+VPFFD_ALWAYS_INLINE void ffd_value_jacobian(const BasisTables& T, const Embedding& E, const double* const P[3],
+                                            const Vector3d& du_dx, Index v, Vector3d& value, Matrix3d& J) {
+  double N[3][kMaxOrder], dN[3][kMaxOrder];
+  int ord[3];
+  Index first[3];
+  for (int a = 0; a < 3; ++a) {
+    ord[a] = K > 0 ? K : T.order[a];
+    const int s = E.span[a][v];
+    eval_span_derivs(T.poly[a].span_coef(s), ord[a], E.tau[a][v], N[a], dN[a]);
+    const double scale = T.poly[a].inv_width[s - T.poly[a].first_span] * du_dx[a];
+    for (int r = 0; r < ord[a]; ++r) dN[a][r] *= scale;
+    first[a] = s - T.poly[a].degree;
+  }
+  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
+  const Index base = (first[0] * T.dims[1] + first[1]) * T.dims[2] + first[2];
+  if constexpr (K > 0) {
+    // As ffd_kernel: K-wide rows along k (contiguous control points) accumulated
+    // with the (i, j) weights of the value and of d/dx, d/dy, then reduced against
+    // the k basis (values, and derivatives for d/dz) once per point.
+    KVec<K> val[3], gx[3], gy[3];
+    for (int q = 0; q < 3; ++q) {
+      val[q].setZero();
+      gx[q].setZero();
+      gy[q].setZero();
+    }
+    for (int i = 0; i < K; ++i)
+      for (int j = 0; j < K; ++j) {
+        const double c = N[0][i] * N[1][j], cx = dN[0][i] * N[1][j], cy = N[0][i] * dN[1][j];
+        const Index row = base + i * si + j * sj;
+        for (int q = 0; q < 3; ++q) {
+          const KVec<K> p = kload<K>(P[q] + row);
+          val[q] += c * p;
+          gx[q] += cx * p;
+          gy[q] += cy * p;
+        }
+      }
+    const KVec<K> n2 = kload<K>(N[2]), d2 = kload<K>(dN[2]);
+    for (int q = 0; q < 3; ++q) {
+      value[q] = (n2 * val[q]).sum();
+      J(q, 0) = (n2 * gx[q]).sum();
+      J(q, 1) = (n2 * gy[q]).sum();
+      J(q, 2) = (d2 * val[q]).sum();
+    }
+    return;
+  }
+  Vector3d val = Vector3d::Zero(), gu = Vector3d::Zero(), gv = Vector3d::Zero(), gw = Vector3d::Zero();
+  for (int i = 0; i < ord[0]; ++i) {
+    Vector3d c = Vector3d::Zero(), cv = Vector3d::Zero(), cw = Vector3d::Zero();
+    for (int j = 0; j < ord[1]; ++j) {
+      Vector3d a = Vector3d::Zero(), aw = Vector3d::Zero();
+      const Index row = base + i * si + j * sj;
+      for (int k = 0; k < ord[2]; ++k) {
+        const Vector3d p(P[0][row + k], P[1][row + k], P[2][row + k]);
+        a += N[2][k] * p;
+        aw += dN[2][k] * p;
+      }
+      c += N[1][j] * a;
+      cv += dN[1][j] * a;
+      cw += N[1][j] * aw;
+    }
+    val += N[0][i] * c;
+    gu += dN[0][i] * c;
+    gv += N[0][i] * cv;
+    gw += N[0][i] * cw;
+  }
+  value = val;
+  J.col(0) = gu;
+  J.col(1) = gv;
+  J.col(2) = gw;
+}
+
+}  // namespace detail
+
+/// FFD deformer of a decomposition's base: the foot points embedded in a lattice.
+class MultiresFFD {
+ public:
+  /// @param[in] m  the decomposition (shared, not copied)
+  /// @param[in] L  lattice. Foot points outside its box (they stray slightly
+  ///               from the fine mesh where S(u, v) is extrapolated) follow the
+  ///               boundary polynomial pieces, which the rest lattice maps onto
+  ///               themselves, so the identity stays exact.
+  /// @throws InvalidInputError for a bad lattice or foot points over 1000 box extents away
+  MultiresFFD(std::shared_ptr<const Multires> m, Lattice L, int threads = 0)
+      : m_(std::move(m)), lattice_(std::move(L)) {
+    VPFFD_CHECK(m_ != nullptr, "MultiresFFD: no decomposition");
+    validate_lattice(lattice_);
+    tables_ = basis_tables(lattice_);
+    RowMatrixX3d X(m_->n_vertices(), 3);
+    for (Index i = 0; i < X.rows(); ++i) X.row(i) = m_->foot_point(i).transpose();
+    embedding_ = embed(lattice_, X, OutsidePolicy::Extrapolate, threads, "foot point");
+    du_dx_ = parameter_scale(lattice_);
+  }
+
+  const Multires& multires() const { return *m_; }
+  const Lattice& lattice() const { return lattice_; }
+  /// Bytes a frame reads per vertex: the decomposition's frame data without the
+  /// foot point (replaced by its embedding): 128 - 24 + 36 = 140.
+  static constexpr int frame_bytes_per_vertex = Multires::frame_bytes_per_vertex - 3 * int(sizeof(double)) +
+                                                int(Embedding::bytes_per_point);
+
+  /// D and J_D at every foot point: (#V x 3 values, #V x 9 row-major Jacobians).
+  void foot_values_jacobians(const Eigen::Ref<const RowMatrixX3d>& P, RowMatrixX3d& values, RowMatrixXd& J,
+                             int threads = 0) const {
+    check_control_points(P);
+    const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
+    const Index n = m_->n_vertices();
+    values.resize(n, 3);
+    J.resize(n, 9);
+    parallel_range(n, threads, [&](Index b, Index e) {
+      detail::dispatch_order(tables_, [&](auto K) {
+        for (Index i = b; i < e; ++i) {
+          Vector3d x;
+          Matrix3d Ji;
+          detail::ffd_value_jacobian<decltype(K)::value>(tables_, embedding_, Pc, du_dx_, i, x, Ji);
+          values.row(i) = x.transpose();
+          for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) J(i, 3 * r + c) = Ji(r, c);
+        }
+      });
+    });
+  }
+
+  /// One frame with control points P (N x 3): fine vertices and approximate normals.
+  MultiresFrame deform(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
+    check_control_points(P);
+    const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
+    return detail::dispatch_order(tables_, [&](auto K) {
+      return reconstruct(
+          *m_,
+          [&](Index i, const Vector3d&, const Vector3d& su, const Vector3d& sv, Vector3d& s1, Vector3d& su1,
+              Vector3d& sv1) {
+            Matrix3d J;
+            detail::ffd_value_jacobian<decltype(K)::value>(tables_, embedding_, Pc, du_dx_, i, s1, J);
+            su1 = J * su;
+            sv1 = J * sv;
+          },
+          threads);
+    });
+  }
+
+ private:
+  void check_control_points(const Eigen::Ref<const RowMatrixX3d>& P) const {
+    VPFFD_CHECK(P.rows() == lattice_.n_control_points(), "MultiresFFD: ", P.rows(),
+                " control points, the lattice has ", lattice_.n_control_points());
+    VPFFD_CHECK(P.allFinite(), "MultiresFFD: control points contain NaN or Inf");
+  }
+
+  std::shared_ptr<const Multires> m_;
+  Lattice lattice_;
+  BasisTables tables_;
+  Embedding embedding_;
+  Vector3d du_dx_;
+};
+
+}  // namespace vpffd

@@ -1,0 +1,133 @@
+// Multiresolution decomposition and its FFD and RBF deformers (paper 002).
+
+#include "common.h"
+#include "vpffd/multires/decomposition.h"
+#include "vpffd/multires/ffd_map.h"
+#include "vpffd/multires/rbf_map.h"
+
+namespace vpffd::bindings {
+
+namespace {
+
+py::array_t<double> vec(const std::vector<double>& v) { return py::array_t<double>(v.size(), v.data()); }
+
+py::array_t<double> soa(const std::vector<double>* arrays, int k) {
+  const py::ssize_t n = arrays[0].size();
+  py::array_t<double> out({n, py::ssize_t(k)});
+  auto o = out.mutable_unchecked<2>();
+  for (py::ssize_t i = 0; i < n; ++i)
+    for (int a = 0; a < k; ++a) o(i, a) = arrays[a][i];
+  return out;
+}
+
+py::tuple frame_to_python(MultiresFrame&& f) {
+  return py::make_tuple(py::cast(std::move(f.vertices)), py::cast(std::move(f.normals)));
+}
+
+}  // namespace
+
+void bind_multires(py::module_& m) {
+  py::class_<Multires, std::shared_ptr<Multires>>(m, "Multires", "Two-scale decomposition (base + displacements).")
+      .def(py::init([](RefV V, RefF F, double smoothing, int threads) {
+             py::gil_scoped_release release;
+             return std::make_shared<Multires>(decompose(V, F, smoothing, threads));
+           }),
+           py::arg("vertices"), py::arg("faces"), py::arg("smoothing"), py::arg("threads") = 0)
+      .def_readonly("base", &Multires::base)
+      .def_readonly("rest_normals", &Multires::rest_normals)
+      .def_property_readonly("displacements", [](const Multires& r) { return vec(r.d); })
+      .def_property_readonly("residuals", [](const Multires& r) { return vec(r.residual); })
+      .def_property_readonly("foot_points", [](const Multires& r) { return soa(r.foot.data(), 3); })
+      .def_property_readonly("tangents_u", [](const Multires& r) { return soa(r.su.data(), 3); })
+      .def_property_readonly("tangents_v", [](const Multires& r) { return soa(r.sv.data(), 3); })
+      .def_property_readonly("normal_coefficients", [](const Multires& r) { return soa(r.coef.data(), 6); })
+      .def_property_readonly("foot_faces",
+                             [](const Multires& r) { return py::array_t<std::int32_t>(r.face.size(), r.face.data()); })
+      .def_property_readonly("foot_uv",
+                             [](const Multires& r) {
+                               const std::vector<double> uv[2] = {r.u, r.v};
+                               return soa(uv, 2);
+                             })
+      .def_property_readonly("extrapolated_fraction", &Multires::extrapolated_fraction)
+      .def_property_readonly_static("bytes_per_vertex", [](py::object) { return Multires::bytes_per_vertex; })
+      .def_property_readonly_static("frame_bytes_per_vertex",
+                                    [](py::object) { return Multires::frame_bytes_per_vertex; });
+
+  py::class_<MultiresFFD>(m, "MultiresFFD", "FFD of a decomposition's base, reconstruction of the fine mesh.")
+      .def(py::init([](std::shared_ptr<Multires> mr, const Lattice& L, int threads) {
+             py::gil_scoped_release release;
+             return std::make_unique<MultiresFFD>(std::move(mr), L, threads);
+           }),
+           py::arg("multires"), py::arg("lattice"), py::arg("threads") = 0)
+      .def_property_readonly_static("frame_bytes_per_vertex",
+                                    [](py::object) { return MultiresFFD::frame_bytes_per_vertex; })
+      .def(
+          "deform",
+          [](const MultiresFFD& d, RefV P, int threads) {
+            MultiresFrame f;
+            {
+              py::gil_scoped_release release;
+              f = d.deform(P, threads);
+            }
+            return frame_to_python(std::move(f));
+          },
+          py::arg("control_points"), py::arg("threads") = 0, "(vertices (V, 3), unit normals (V, 3)).")
+      .def(
+          "foot_values_jacobians",
+          [](const MultiresFFD& d, RefV P, int threads) {
+            RowMatrixX3d X;
+            RowMatrixXd J;
+            {
+              py::gil_scoped_release release;
+              d.foot_values_jacobians(P, X, J, threads);
+            }
+            return py::make_tuple(X, J);
+          },
+          py::arg("control_points"), py::arg("threads") = 0, "(D at the foot points (V, 3), Jacobians (V, 9)).");
+
+  py::class_<RbfWeights>(m, "RbfWeights", "A solved RBF map (normalised coordinates).")
+      .def_readonly("w", &RbfWeights::w)
+      .def_readonly("A", &RbfWeights::A)
+      .def_readonly("b", &RbfWeights::b);
+
+  py::class_<RbfMap>(m, "RbfMap", "Triharmonic RBF space deformation, factorised once per handle set.")
+      .def(py::init<const Eigen::Ref<const RowMatrixX3d>&>(), py::arg("handles"))
+      .def_property_readonly("n_handles", &RbfMap::n_handles)
+      .def_property_readonly("handles", &RbfMap::handles)
+      .def("solve", &RbfMap::solve, py::arg("targets"))
+      .def(
+          "map",
+          [](const RbfMap& r, const RbfWeights& W, RefV X, int threads) {
+            py::gil_scoped_release release;
+            return r.map(W, X, threads);
+          },
+          py::arg("weights"), py::arg("points"), py::arg("threads") = 0)
+      .def(
+          "jacobians",
+          [](const RbfMap& r, const RbfWeights& W, RefV X) {
+            VPFFD_CHECK(X.allFinite(), "RBF: points contain NaN or Inf");
+            RowMatrixXd J(X.rows(), 9);
+            for (Index i = 0; i < X.rows(); ++i) {
+              Vector3d v;
+              Matrix3d Ji;
+              r.eval(W, X.row(i).transpose(), v, Ji);
+              for (int a = 0; a < 3; ++a)
+                for (int c = 0; c < 3; ++c) J(i, 3 * a + c) = Ji(a, c);
+            }
+            return J;
+          },
+          py::arg("weights"), py::arg("points"), "(n, 9) row-major Jacobians of the map.")
+      .def(
+          "deform",
+          [](const RbfMap& r, std::shared_ptr<Multires> mr, const RbfWeights& W, int threads) {
+            MultiresFrame f;
+            {
+              py::gil_scoped_release release;
+              f = rbf_deform(*mr, r, W, threads);
+            }
+            return frame_to_python(std::move(f));
+          },
+          py::arg("multires"), py::arg("weights"), py::arg("threads") = 0);
+}
+
+}  // namespace vpffd::bindings

@@ -1,0 +1,362 @@
+"""Multiresolution deformation (paper 002_46481e9cc964c3b7.txt): a detailed mesh
+as a smooth base surface plus normal displacements, deformed through its base
+by an FFD lattice or a triharmonic RBF map, with positions and normals rebuilt
+per vertex without neighbours (eq. 1 and the approximate normals of eqs. 6-7).
+
+>>> import vpffd
+>>> mesh = vpffd.shapes.bumpy_sphere(3)
+>>> mr = vpffd.Multires(mesh, smoothing=10)
+>>> lat = vpffd.Lattice.around(mesh, shape=6)
+>>> r = vpffd.MultiresDeformer(mr, lat).deform(vpffd.twist(lat.control_points, 30))
+>>> r.vertices.shape == mesh.vertices.shape
+True
+
+Frames run on the CPU (OpenMP or serial). The Vulkan compute dispatch of issue 12
+is not written yet: ``backend="vulkan"`` raises BackendUnavailableError. The
+per-vertex frame data (``Multires.frame_bytes_per_vertex``: foot point, S_u, S_v,
+d and six coefficients, one array each) is laid out for such a shader.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _arrays, _core
+from .deformer import Deformer
+from .lattice import Lattice
+from .mesh import Mesh
+
+InvalidInputError = _core.InvalidInputError
+BackendUnavailableError = _core.BackendUnavailableError
+
+_VOLUME_MODES = ("base", "fine")
+_NORMAL_MODES = ("approximate", "exact")
+
+
+def _threads_arg(threads):
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
+                                or not 1 <= threads <= 4096):
+        raise InvalidInputError(f"threads: expected an integer in 1..4096 or None, got {threads!r}")
+    return 0 if threads is None else int(threads)
+
+
+def _read_only(a) -> np.ndarray:
+    a = np.asarray(a)
+    a.setflags(write=False)
+    return a
+
+
+def _volume(V, F, closed: bool) -> float:
+    if not closed:
+        return float("nan")
+    return float(_core.signed_volume(V, F, 0.5 * (V.min(axis=0) + V.max(axis=0))))
+
+
+def _relative(v, ref) -> float:
+    if not np.isfinite(ref):
+        return float("nan")
+    return abs(v - ref) / abs(ref) if ref != 0 else (0.0 if v == 0 else float("inf"))
+
+
+class Multires:
+    """Two-scale decomposition of a triangle mesh: base surface + normal displacements.
+
+    The base S is the mesh faired by implicit cotangent-Laplacian smoothing with the
+    same connectivity; every base triangle is its own linear patch (paper §6). Each
+    fine vertex is stored as p = s0 + u S_u + v S_v + d N_S in the affine frame of
+    the triangle of its one-ring on S that needs the least extrapolation; that
+    representation is exact, so the identity and rigid motions reproduce the mesh
+    to rounding.
+
+    Parameters
+    ----------
+    mesh : Mesh, (vertices, faces) pair, or object with vertices/faces
+        any triangle mesh; ``MultiresDeformer.deform(preserve_volume=True)`` needs
+        a closed one. Every vertex must be in a triangle.
+    smoothing : float > 0
+        diffusion time of the fairing in units of the squared mean edge length,
+        taken in ceil(smoothing) implicit steps: an integer is a number of unit
+        steps (default 10). More smoothing gives a smoother base, larger
+        displacements and (paper §4.1) larger approximate-normal errors.
+    threads : int, optional
+
+    Attributes
+    ----------
+    mesh : Mesh
+    base : Mesh
+        the base surface S (same faces).
+    displacements : (V,) float64
+        signed normal displacement d_i, world units.
+    residuals : (V,) float64
+        how far each vertex's affine foot point S(u, v) lies outside its base
+        triangle, world units (0 where the exact foot point lies in the triangle).
+    extrapolated_fraction : float
+        fraction of the vertices with a positive residual.
+    bytes_per_vertex : int
+        per-vertex data held (228 bytes; ``frame_bytes_per_vertex``, 128, is what a
+        frame reads).
+    """
+
+    bytes_per_vertex = _core.Multires.bytes_per_vertex
+    frame_bytes_per_vertex = _core.Multires.frame_bytes_per_vertex
+
+    def __init__(self, mesh, smoothing=10, threads=None):
+        self.mesh = Mesh.from_any(mesh)
+        if isinstance(smoothing, (bool, np.bool_)) or not isinstance(smoothing, (int, float, np.integer,
+                                                                                 np.floating)):
+            raise TypeError(f"Multires: smoothing must be a number, got {type(smoothing).__name__}")
+        if not (np.isfinite(smoothing) and smoothing > 0):
+            raise InvalidInputError(f"Multires: smoothing must be a positive finite number, got {smoothing}")
+        self.smoothing = float(smoothing)
+        self._m = _core.Multires(self.mesh.vertices, self.mesh.faces, self.smoothing, _threads_arg(threads))
+        self.base = Mesh(self._m.base, self.mesh.faces)
+        self.displacements = _read_only(self._m.displacements)
+        self.residuals = _read_only(self._m.residuals)
+        self.rest_normals = _read_only(self._m.rest_normals)
+        self.extrapolated_fraction = float(self._m.extrapolated_fraction)
+        # Reference volumes of every frame's report, measured once (NaN when open).
+        closed = self.mesh.is_closed
+        self._rest_volumes = (_volume(self.mesh.vertices, self.mesh.faces, closed),
+                              _volume(self.base.vertices, self.mesh.faces, closed), closed)
+
+    @property
+    def n_vertices(self) -> int:
+        return self.mesh.n_vertices
+
+    def frame_data(self) -> dict:
+        """Copies of the per-vertex frame data: ``foot_points`` (V, 3), ``tangents_u``,
+        ``tangents_v`` (V, 3), ``displacements`` (V,), ``normal_coefficients`` (V, 6)
+        (a_u, b_u, g_u, a_v, b_v, g_v), and the bookkeeping ``foot_faces`` (V,) and
+        ``foot_uv`` (V, 2)."""
+        m = self._m
+        return {"foot_points": m.foot_points, "tangents_u": m.tangents_u, "tangents_v": m.tangents_v,
+                "displacements": m.displacements, "normal_coefficients": m.normal_coefficients,
+                "foot_faces": m.foot_faces, "foot_uv": m.foot_uv}
+
+    def __repr__(self) -> str:
+        r = self.residuals
+        return (f"Multires({self.n_vertices} vertices, smoothing={self.smoothing:g}, "
+                f"|d| max {np.abs(self.displacements).max():.3g} mean {np.abs(self.displacements).mean():.3g}, "
+                f"residual max {r.max():.3g} mean {r.mean():.3g}, "
+                f"extrapolated {100 * self.extrapolated_fraction:.1f}%, {self.bytes_per_vertex} B/vertex)")
+
+
+@dataclass
+class MultiresResult:
+    """One multiresolution frame.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64
+        deformed fine vertices p' = S'(t_i) + d_i N_S'.
+    normals : (V, 3) float64
+        unit normals: eqs. 6-7 ("approximate") or the area-weighted normals of the
+        deformed fine mesh ("exact").
+    base_vertices : (V, 3) float64
+        the deformed base mesh.
+    control_points : (nu, nv, nw, 3) or None
+        the (corrected) control points that drove the frame; None for an RBF.
+    volume, rest_volume, volume_error : float
+        enclosed volume of the deformed fine mesh, of the rest one, and
+        |volume - rest_volume| / |rest_volume| (NaN for an open mesh).
+    base_volume, base_rest_volume, base_volume_error : float
+        the same for the base mesh.
+    volume_mode, normals_mode, backend : str
+    """
+    vertices: np.ndarray
+    normals: np.ndarray
+    base_vertices: np.ndarray
+    control_points: object
+    volume: float
+    rest_volume: float
+    volume_error: float
+    base_volume: float
+    base_rest_volume: float
+    base_volume_error: float
+    volume_mode: str
+    normals_mode: str
+    backend: str
+
+
+def _result(mr: Multires, X, N, B, normals, control_points, volume_mode, backend) -> MultiresResult:
+    F = mr.mesh.faces
+    if normals == "exact":
+        N = _core.vertex_normals(X, F)
+    rest, brest, closed = mr._rest_volumes
+    vol, bvol = _volume(X, F, closed), _volume(B, F, closed)
+    return MultiresResult(vertices=X, normals=N, base_vertices=B, control_points=control_points, volume=vol,
+                          rest_volume=rest, volume_error=_relative(vol, rest), base_volume=bvol,
+                          base_rest_volume=brest, base_volume_error=_relative(bvol, brest), volume_mode=volume_mode,
+                          normals_mode=normals, backend=backend)
+
+
+def _check_normals(normals):
+    if normals not in _NORMAL_MODES:
+        raise InvalidInputError(f"normals: expected 'approximate' or 'exact', got {normals!r}")
+
+
+def _check_multires(mr, who):
+    if not isinstance(mr, Multires):
+        raise TypeError(f"{who}: expected a vpffd.Multires, got {type(mr).__name__}")
+
+
+class MultiresDeformer:
+    """FFD of a decomposition's base with the fine mesh rebuilt per vertex.
+
+    Per frame: S'(t_i) = D(S(t_i)), S'_u = J_D S_u, S'_v = J_D S_v with the B-spline
+    basis values and first derivatives evaluated at each foot point (analytic
+    Jacobian), then p' = S' + d N_S' and the approximate normal of eqs. 6-7.
+
+    Parameters
+    ----------
+    multires : Multires
+    lattice : Lattice
+        its box must contain the base mesh (``outside``) — a lattice around the
+        fine mesh does, since fairing moves vertices inwards.
+    backend : {"auto", "openmp", "serial", "vulkan"}
+        "auto" runs on the CPU (OpenMP where built with it). "vulkan" raises
+        BackendUnavailableError: the compute dispatch (issue 12) is not written yet.
+    outside : {"error", "extrapolate"}
+        for base vertices outside the box (as ``Deformer``). Foot points that stray
+        outside always follow the boundary polynomial pieces (the rest lattice maps
+        them onto themselves).
+    threads : int, optional
+        OpenMP threads (default: all); results do not depend on it.
+    """
+
+    def __init__(self, multires, lattice, backend: str = "auto", outside: str = "error", threads=None):
+        _check_multires(multires, "MultiresDeformer")
+        if not isinstance(lattice, Lattice):
+            raise TypeError(f"MultiresDeformer: expected a vpffd.Lattice, got {type(lattice).__name__}")
+        if not isinstance(backend, str):
+            raise TypeError(f"backend: expected a string, got {type(backend).__name__}")
+        if backend == "vulkan":
+            raise BackendUnavailableError(
+                "MultiresDeformer: backend 'vulkan' is not supported yet (the multiresolution compute dispatch of "
+                "issue 12 is still to be written); use 'auto', 'openmp' or 'serial'")
+        if backend not in ("auto", "openmp", "serial"):
+            raise InvalidInputError(f"backend: unknown backend {backend!r}; known: 'auto', 'openmp', 'serial', "
+                                    "'vulkan'")
+        if backend == "openmp" and not _core.has_openmp():
+            raise BackendUnavailableError("backend 'openmp': this build has no OpenMP")
+        if backend == "auto":
+            backend = "openmp" if _core.has_openmp() else "serial"
+        self.backend = backend
+        self._threads = 1 if backend == "serial" else _threads_arg(threads)
+        self.multires = multires
+        self.lattice = lattice
+        self._outside = outside
+        dthreads = None if self._threads == 0 else self._threads
+        # The volume corrections are the Deformer's own (no second implementation).
+        self._base = Deformer(multires.base, lattice, backend=backend, outside=outside, threads=dthreads)
+        self._fine = None
+        self._ffd = _core.MultiresFFD(multires._m, lattice._spec, self._threads)
+
+    @property
+    def bytes_per_vertex(self) -> int:
+        """Bytes a frame reads per vertex: foot-point embedding (36), S_u, S_v, d and
+        the six coefficients (104): 140."""
+        return _core.MultiresFFD.frame_bytes_per_vertex
+
+    def _fine_deformer(self) -> Deformer:
+        if self._fine is None:
+            t = None if self._threads == 0 else self._threads
+            self._fine = Deformer(self.multires.mesh, self.lattice, backend=self.backend, outside=self._outside,
+                                  threads=t)
+        return self._fine
+
+    def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", volume: str = "base",
+               normals: str = "approximate", weights=None, fixed=None, rounds: int = 1) -> MultiresResult:
+        """One frame.
+
+        Parameters
+        ----------
+        control_points : (nu, nv, nw, 3) or (N, 3), optional
+            default ``lattice.control_points``; not modified.
+        preserve_volume : bool
+            run the exact volume correction of ``vpffd.Deformer`` (needs a closed mesh).
+        axes, weights, fixed, rounds
+            as ``Deformer.deform``.
+        volume : {"base", "fine"}
+            "base": the correction runs on the base mesh S, whose volume is then
+            exact; the fine mesh's is approximate (``r.volume_error``).
+            "fine": the correction runs on the FFD of the fine mesh's own vertices;
+            those control points drive S'. The rebuilt fine mesh is not the FFD of
+            its vertices (the displacement follows the deformed base normal), so its
+            volume is approximate too; ``r.volume_error`` says by how much.
+        normals : {"approximate", "exact"}
+            eqs. 6-7 per vertex, or the area-weighted normals of the deformed fine mesh.
+        """
+        if not isinstance(preserve_volume, (bool, np.bool_)):
+            raise TypeError(f"preserve_volume: expected a bool, got {type(preserve_volume).__name__}")
+        if volume not in _VOLUME_MODES:
+            raise InvalidInputError(f"volume: expected 'base' or 'fine', got {volume!r}")
+        _check_normals(normals)
+        P = self.lattice._control(control_points)
+        if preserve_volume:
+            if not self.multires.mesh.is_closed:
+                raise InvalidInputError(
+                    "MultiresDeformer.deform: the mesh does not bound a volume, so it cannot be preserved "
+                    f"(pass preserve_volume=False):\n{self.multires.mesh.check()}")
+            d = self._base if volume == "base" else self._fine_deformer()
+            r = d.deform(P, preserve_volume=True, axes=axes, weights=weights, fixed=fixed, rounds=rounds)
+            Pc = np.ascontiguousarray(r.control_points.reshape(-1, 3))
+            B = r.vertices if volume == "base" else self._base.ffd(Pc)
+        else:
+            Pc = P
+            B = self._base.ffd(Pc)
+        X, N = self._ffd.deform(Pc, self._threads)
+        return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend)
+
+
+class RBFDeformer:
+    """Triharmonic RBF space deformation of a decomposition's base (paper §6).
+
+    r(x) = sum_j w_j |x - h_j|^3 + A x + b interpolates handle targets; the
+    (H+4)^2 system is LU-factorised once here, each ``deform`` is a back-substitution.
+    The fine mesh is rebuilt from S' = r(S(t_i)), S'_u = J_r S_u, S'_v = J_r S_v.
+
+    Parameters
+    ----------
+    multires : Multires
+    handles : (H, 3) rest-space points, or a Mesh (its vertices)
+        H >= 4, distinct, not all in one plane (else InvalidInputError naming the problem).
+    threads : int, optional
+    """
+
+    def __init__(self, multires, handles, threads=None):
+        _check_multires(multires, "RBFDeformer")
+        if hasattr(handles, "vertices") and hasattr(handles, "faces"):
+            handles = np.asarray(handles.vertices)
+        H = _arrays.points(handles, "RBFDeformer: handles")
+        self.multires = multires
+        self.handles = _read_only(H)
+        self._threads = _threads_arg(threads)
+        self._rbf = _core.RbfMap(H)
+
+    @property
+    def n_handles(self) -> int:
+        return self.handles.shape[0]
+
+    def _solve(self, targets):
+        T = _arrays.points(targets, "RBFDeformer: targets", rows=self.n_handles)
+        return self._rbf.solve(T)
+
+    def deform(self, targets, normals: str = "approximate") -> MultiresResult:
+        """The frame that takes each handle to its target ((H, 3), world units)."""
+        _check_normals(normals)
+        W = self._solve(targets)
+        X, N = self._rbf.deform(self.multires._m, W, self._threads)
+        B = self._rbf.map(W, self.multires.base.vertices, self._threads)
+        return _result(self.multires, X, N, B, normals, None, "none", "openmp" if _core.has_openmp() else "serial")
+
+    def map(self, points, targets) -> np.ndarray:
+        """(n, 3) images of rest-space ``points`` under the map for ``targets``."""
+        X = _arrays.points(points, "RBFDeformer.map: points")
+        return self._rbf.map(self._solve(targets), X, self._threads)
+
+    def jacobians(self, points, targets) -> np.ndarray:
+        """(n, 3, 3) Jacobians dr/dx at rest-space ``points`` (analytic)."""
+        X = _arrays.points(points, "RBFDeformer.jacobians: points")
+        return self._rbf.jacobians(self._solve(targets), X).reshape(-1, 3, 3)
