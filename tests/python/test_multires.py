@@ -284,7 +284,7 @@ def test_cli_deform_multires(tmp_path, capsys):
     src = vpffd.shapes.bumpy_sphere(3)
     vpffd.save_mesh(tmp_path / "in.ply", src)
     assert main(["deform", str(tmp_path / "in.ply"), str(tmp_path / "out.ply"), "--multires", "5", "--twist", "40",
-                 "--lattice", "6x6x6"]) == 0
+                 "--lattice", "6x6x6", "--up", "z"]) == 0
     out = capsys.readouterr().out
     assert "Multires(" in out and "base volume kept" in out
     m = vpffd.load_mesh(tmp_path / "out.ply")
