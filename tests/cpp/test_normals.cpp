@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "vpffd/ffd/normals.h"
+#include "vpffd/frame/deformer.h"
 #include "vpffd/mesh/check.h"
 #include "vpffd/mesh/shapes.h"
 
