@@ -67,6 +67,7 @@ class Scene:
     view: tuple
     overlay: dict  # render() arguments for the lattice drawn over the mesh
     results: dict = field(default_factory=dict)
+    fold_marks: dict = field(default_factory=dict)  # (variant, frame) -> "ok" / "FOLD" / "?"
 
 
 def twisting_cube(quick: bool = False) -> Scene:
@@ -172,7 +173,7 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
                 vol = f"volume kept (error {r.volume_change[f]:+.0e})"
             else:
                 vol = f"volume {100 * r.volume_change_plain[f]:+.1f} %"
-            mark = _fold_mark(scene.lattice, r.corrected_points[f])
+            mark = _fold_mark(scene, k, f)
             fold_note = {"FOLD": "lattice FOLDS here", "?": "fold check undecided"}.get(mark, "")
             pic = _label(Image.fromarray(np.ascontiguousarray(img)), [_LABELS[k], vol, fold_note])
             if mark == "FOLD":  # a folded frame is framed in red, so it shows in the GIF at a glance
@@ -217,11 +218,14 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
 
 
 # --- numbers ---------------------------------------------------------------------
-def _fold_mark(lattice, control_points) -> str:
-    """One word for a frame's fold check: "ok" (proven fold-free), "FOLD", or "?" (undecided)."""
-    from .folds import check_folds
-    rep = check_folds(lattice, control_points)
-    return "FOLD" if rep.folded else ("ok" if rep.certified else "?")
+def _fold_mark(scene: Scene, key: str, f: int) -> str:
+    """One word for a frame's fold check: "ok" (proven fold-free), "FOLD", or "?"
+    (undecided). Checked once per variant and frame: the table and the pictures share it."""
+    if (key, f) not in scene.fold_marks:
+        from .folds import check_folds
+        rep = check_folds(scene.lattice, scene.results[key].corrected_points[f])
+        scene.fold_marks[(key, f)] = "FOLD" if rep.folded else ("ok" if rep.certified else "?")
+    return scene.fold_marks[(key, f)]
 
 
 def _table(scene: Scene, stream) -> None:
@@ -241,7 +245,7 @@ def _table(scene: Scene, stream) -> None:
         line = f"  {f:>5} {t:6.3f} {scene.param(t):10.1f} {100 * plain.volume_change_plain[f]:+9.2f}%"
         for k in kept:
             line += f" {res[k].volume_change[f]:+10.1e}"
-        line += "  " + " ".join(_fold_mark(scene.lattice, res[k].corrected_points[f]) for k in ["plain", *kept])
+        line += "  " + " ".join(_fold_mark(scene, k, f) for k in ["plain", *kept])
         p(line + ("  *" if f in scene.keyframes[1:] else ""))
     losses = ", ".join(f"{-100 * plain.volume_change_plain[f]:.1f} % (frame {f})" for f in scene.keyframes[1:])
     worst = max(res[k].max_volume_error for k in kept)
