@@ -439,8 +439,8 @@ class Deformer:
             return
         if self._last_frame is None:
             rest = np.ascontiguousarray(self.lattice.rest_points.reshape(-1, 3))
-            self._vk.deform(rest, False, "xyz", None, None, [], None, "traversal", self._threads, False, 1,
-                            read_vertices=False)
+            # The binding's defaults for everything else: a plain FFD of the rest lattice.
+            self._vk.deform(rest, preserve_volume=False, threads=self._threads, read_vertices=False)
         else:
             args, rounds = self._last_frame
             self._vk.deform(*args, rounds, read_vertices=False)

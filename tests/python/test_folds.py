@@ -246,6 +246,22 @@ def test_on_fold_raise_keeps_the_device_frame(cube_case):
     assert np.allclose(on_device, good.vertices, atol=1e-5)
 
 
+@pytest.mark.skipif(not getattr(vpffd._core, "has_vulkan", False) or
+                    not any(x["suitable"] for x in vpffd.vulkan_devices()), reason="no Vulkan device")
+def test_on_fold_raise_on_the_first_frame_leaves_the_rest_shape(cube_case):
+    cube, lat = cube_case
+    dev = [x for x in vpffd.vulkan_devices() if x["suitable"]][0]
+    d = vpffd.Deformer(cube, lat, backend="vulkan", device=dev["index"])
+    with pytest.raises(vpffd.FoldError):
+        d.deform(swapped_slabs(lat), on_fold="raise")
+    # The device's plain FFD of the rest lattice, within the float32 bound derived in
+    # tests/python/gpu_bounds.py: u (basis error + terms + 3) max|P - o|.
+    from gpu_bounds import U32, _basis_error, _terms
+    o = 0.5 * (lat.box_min + lat.box_max)
+    bound = U32 * (_basis_error(lat) + _terms(lat) + 3) * np.abs(lat.rest_points - o).max()
+    assert np.abs(d._vk.vertices() - cube.vertices).max() <= bound
+
+
 # --- weights="auto" ----------------------------------------------------------------
 def test_auto_weights_keep_the_correction_local():
     """A twist of the top half of a cube: with weights="auto" the control points of
