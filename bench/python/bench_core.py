@@ -14,7 +14,7 @@ import argparse
 import platform
 from pathlib import Path
 
-from vpffd.benchmark import run_benchmark
+from vpffd.cli.benchmark import run_benchmark
 
 
 def main():

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import vpffd
-from vpffd.benchmark import median_ms
+from vpffd.cli.benchmark import median_ms
 
 
 def edits(lat):

@@ -49,7 +49,7 @@ import numpy as np
 
 import vpffd
 
-from vpffd.benchmark import SHARED_MESHES, frame_edit as edit, median_ms
+from vpffd.cli.benchmark import SHARED_MESHES, frame_edit as edit, median_ms
 
 ROOT = Path(__file__).resolve().parents[2]
 

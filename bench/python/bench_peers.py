@@ -117,7 +117,7 @@ def samples_ms(fn, repeats: int) -> list:
 
 def meshes(include_shared: bool):
     from vpffd import shapes
-    from vpffd.benchmark import SHARED_MESHES
+    from vpffd.cli.benchmark import SHARED_MESHES
     from vpffd.io import load_mesh
     out = [(f"icosphere {n:,} v", lambda s=s: shapes.icosphere(s)) for s, n in ((4, 2562), (6, 40962), (8, 655362))]
     dragon = SHARED_MESHES / "dragon_vrip_welded.ply.gz"

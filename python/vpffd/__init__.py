@@ -14,11 +14,20 @@ from ._cpu import check_isa as _check_isa
 _check_isa()
 # libgomp's default lets idle threads spin at every barrier; on a machine whose
 # cores are shared (laptops, CI, notebooks next to a compiler) a spinning team
-# then waits a scheduler tick (4 ms) per parallel region, several times a frame.
-# Sleeping waits cost microseconds instead. Read once, when _core loads libgomp;
-# a value the user set is kept.
-_os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-from . import _core  # noqa: E402
+# then waits a scheduler tick (4 ms) per parallel region, several times a frame,
+# where sleeping waits cost microseconds. libgomp reads OMP_WAIT_POLICY once, when
+# it is loaded: vpffd asks for passive waits only while _core loads it, only when
+# the user has not chosen a policy, and puts the environment back as it found it
+# (child processes and libraries loaded later see no change). A process that had
+# loaded libgomp before importing vpffd keeps its own policy.
+_policy_was_set = "OMP_WAIT_POLICY" in _os.environ
+if not _policy_was_set:
+    _os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
+try:
+    from . import _core  # noqa: E402
+finally:
+    if not _policy_was_set:
+        del _os.environ["OMP_WAIT_POLICY"]
 from ._core import (BackendUnavailableError, DeviceError, InvalidInputError, MeshIOError,  # noqa: F401
                     SolverError)
 from . import edits, shapes

@@ -219,7 +219,7 @@ class BouncingBall(Animator):
     squash : float
         deepest penetration, in ball heights (0.7: the ball's top sinks to 30 %
         of its height). With the defaults a plain FFD of a sphere in an 8x8x8
-        lattice loses up to 73 % (``vpffd.demo`` shows the paper's key frames).
+        lattice loses up to 73 % (``vpffd.cli.demo`` shows the paper's key frames).
     stretch : float
         extra vertical scale at the speed of impact in flight (0.15: 15 %).
     gravity : float

@@ -186,7 +186,7 @@ def test_jelly_is_deterministic_pinned_and_damped(cube):
 def test_paper_twisting_cube_figure():
     """Figure 6: box(32) has the paper's 6,146 vertices; twisted to 345 degrees in
     a 5x5x5 cubic lattice the plain FFD loses 66 % at the last frame."""
-    from vpffd.demo import CUBE_TWIST_DEG, twisting_cube
+    from vpffd.cli.demo import CUBE_TWIST_DEG, twisting_cube
     s = twisting_cube()
     assert s.mesh.n_vertices == 6146 and CUBE_TWIST_DEG == 345
     d = vpffd.Deformer(s.mesh, s.lattice, backend="serial")
@@ -200,7 +200,7 @@ def test_paper_twisting_cube_figure():
 def test_paper_bouncing_ball_figure():
     """Figure 1: 28 %, 51 %, 64 % lost at three frames of the flattening; ours
     are frames 12, 14, 16 of 41 and lose 29.7 %, 50.1 %, 63.6 %."""
-    from vpffd.demo import bouncing_ball
+    from vpffd.cli.demo import bouncing_ball
     s = bouncing_ball()
     assert s.keyframes == [0, 12, 14, 16] and s.frames == 41
     r = run_animation(s.mesh, s.lattice, s.animator, frames=[s.animator.times(41)[f] for f in s.keyframes],

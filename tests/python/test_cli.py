@@ -10,7 +10,7 @@ import pytest
 
 import vpffd
 from vpffd import shapes
-from vpffd.__main__ import main
+from vpffd.cli.main import main
 
 # What the compiled core was built with (the Python modules always ship).
 HAS_IO = vpffd._core.has_openmesh
@@ -205,7 +205,7 @@ def test_deform_render(tmp_path):
 
 
 def test_bench_runs(tmp_path, capsys):
-    pytest.importorskip("vpffd.benchmark")
+    pytest.importorskip("vpffd.cli.benchmark")
     assert main(["bench", "--no-shared", "--repeats", "1", "--no-csr", "--json", str(tmp_path / "b.json")]) == 0
     out = capsys.readouterr().out
     assert "| mesh |" in out and (tmp_path / "b.json").exists()
@@ -215,7 +215,7 @@ def test_progress_bar_only_after_a_second():
     import io
     import time
 
-    from vpffd._progress import Progress
+    from vpffd.cli.progress import Progress
 
     class Tty(io.StringIO):
         def isatty(self):
@@ -248,7 +248,7 @@ def test_deform_size_needs_render(tmp_path, capsys):
 
 def test_demo_size_checked_before_deforming(tmp_path, monkeypatch):
     """A bad size failed only after all the deforming, at the first frame drawn."""
-    from vpffd import demo
+    from vpffd.cli import demo
 
     def no_deforming(*a, **k):
         raise AssertionError("deformed before checking the size")
@@ -266,7 +266,7 @@ def test_demo_rerun_removes_stale_frames(tmp_path):
     """Frames of an earlier, longer run stayed next to the new ones."""
     import io
 
-    from vpffd.demo import run_demo
+    from vpffd.cli.demo import run_demo
     fdir = tmp_path / "twisting_cube"  # 9 frames with quick: frame_000..frame_008
     fdir.mkdir()
     for name in ("frame_008.png", "frame_009.png", "frame_024.png", "frame_1000.png",
@@ -316,7 +316,7 @@ def test_demo_without_pillow_and_matplotlib_says_what_to_install(tmp_path, monke
     import importlib.util
     import io
 
-    from vpffd.demo import run_demo
+    from vpffd.cli.demo import run_demo
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec",
                         lambda name, *a, **k: None if name in ("PIL", "matplotlib") else real(name, *a, **k))

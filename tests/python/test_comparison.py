@@ -190,7 +190,7 @@ def test_bad_arguments(squashed):
 
 
 def test_cli_render_and_up(tmp_path, capsys):
-    from vpffd.__main__ import main
+    from vpffd.cli.main import main
     if not vpffd.io.FORMATS:
         pytest.skip("built without OpenMesh")
     src = tmp_path / "standing.off"

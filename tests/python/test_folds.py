@@ -335,8 +335,8 @@ def test_bad_input(cube_case):
 
 # --- the command line and the demo print a verdict -----------------------------------
 def test_cli_deform_and_demo_print_fold_verdicts(tmp_path, capsys):
-    from vpffd.__main__ import main
-    from vpffd.demo import run_demo
+    from vpffd.cli.main import main
+    from vpffd.cli.demo import run_demo
     vpffd.save_mesh(tmp_path / "s.obj", vpffd.shapes.icosphere(2))
     assert main(["deform", str(tmp_path / "s.obj"), str(tmp_path / "o.obj"), "--squash", "0.3",
                  "--twist", "200"]) == 0

@@ -280,7 +280,7 @@ def test_real_scan(shared_meshes):
 
 @pytest.mark.skipif(not vpffd._core.has_openmesh, reason="mesh files need OpenMesh")
 def test_cli_deform_multires(tmp_path, capsys):
-    from vpffd.__main__ import main
+    from vpffd.cli.main import main
     src = vpffd.shapes.bumpy_sphere(3)
     vpffd.save_mesh(tmp_path / "in.ply", src)
     assert main(["deform", str(tmp_path / "in.ply"), str(tmp_path / "out.ply"), "--multires", "5", "--twist", "40",

@@ -1,0 +1,488 @@
+"""The ``vpffd`` command: ``vpffd demo | deform | info | bench | devices`` (``vpffd CMD --help``).
+
+Errors end the command with one line on stderr, ``vpffd CMD: error: ...``, and
+exit status 2 for bad arguments or 1 for anything else (bad or missing files,
+a correction that does not exist). ``VPFFD_TRACEBACK=1`` shows the traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import sys
+import time
+import warnings
+
+from .progress import Progress
+
+EXIT_ERROR, EXIT_USAGE = 1, 2
+
+
+class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows defaults, except empty ones and those the help already states."""
+
+    def _get_help_string(self, action):
+        h = action.help or ""
+        if action.default in (None, False) or "default" in h:
+            return h
+        return super()._get_help_string(action)
+
+
+class _UsageError(Exception):
+    """Bad command-line value found after parsing (exit status 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error (argparse prints the usage first)."""
+
+    def error(self, message):
+        sys.stderr.write(f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+        sys.exit(EXIT_USAGE)
+
+
+# --- argument types ---------------------------------------------------------------
+def _lattice_shape(text: str):
+    parts = re.split(r"[x,]", text.strip().lower())
+    try:
+        n = [int(p) for p in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NxNxN such as 8x8x8 (or one number), got {text!r}") from None
+    if len(n) == 1:
+        n = n * 3
+    if len(n) != 3 or min(n) < 2 or max(n) > 64:
+        raise argparse.ArgumentTypeError(f"expected three sizes 2..64 such as 8x8x8, got {text!r}")
+    return tuple(n)
+
+
+def _size(text: str):
+    m = re.fullmatch(r"\s*(\d+)\s*[x,]\s*(\d+)\s*", text)
+    if not m or not (8 <= int(m.group(1)) <= 8192 and 8 <= int(m.group(2)) <= 8192):
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in pixels such as 320x240, got {text!r}")
+    return int(m.group(1)), int(m.group(2))
+
+
+def _vec3(text: str, what: str):
+    parts = text.split(",")
+    try:
+        v = [float(p) for p in parts]
+    except ValueError:
+        v = []
+    if len(v) != 3 or not all(abs(x) < float("inf") for x in v):
+        raise argparse.ArgumentTypeError(f"{what}: expected three numbers X,Y,Z, got {text!r}")
+    return v
+
+
+def _drag(text: str):
+    if text.count(":") != 1:
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z:TX,TY,TZ (a rest point and its target), got {text!r}")
+    a, b = text.split(":")
+    return _vec3(a, "--drag point"), _vec3(b, "--drag target")
+
+
+def _finite(text: str):
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not abs(x) < float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return x
+
+
+def _positive(text: str):
+    x = _finite(text)
+    if x <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return x
+
+
+def _positive_int(text: str):
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return n
+
+
+# --- mesh files and pictures (vpffd.io and vpffd.render raise BackendUnavailableError
+# when the build lacks OpenMesh or Embree) ---------------------------------------------
+def _extension(path: str) -> str:
+    name = os.path.basename(path).lower()
+    return name.rsplit(".", 1)[-1] if "." in name else ""
+
+
+def _load(path: str):
+    if not os.path.exists(path):
+        raise FileNotFoundError(2, "no such file", path)
+    if os.path.isdir(path):
+        raise IsADirectoryError(21, "is a folder, not a mesh file", path)
+    from ..io import load_mesh
+    return load_mesh(path)
+
+
+def _render_png(path, deformer, result, size, up, lattice_style):
+    from .. import render_comparison, save_png  # rest | plain FFD | volume-preserved
+    save_png(path, render_comparison(deformer, result, size=size, up=up, lattice_style=lattice_style))
+
+
+# --- commands ---------------------------------------------------------------------
+def _cmd_demo(args) -> int:
+    from .demo import run_demo
+    run_demo(out=args.out, quick=args.quick, render=not args.no_render, size=args.size, progress=Progress)
+    return 0
+
+
+def _check_lattice(args) -> None:
+    if args.degree < 1 or args.degree > 5:
+        raise _UsageError(f"--degree: expected 1..5, got {args.degree}")
+    if min(args.lattice) < args.degree + 1:
+        raise _UsageError(f"--lattice {'x'.join(map(str, args.lattice))} is too small for degree {args.degree} "
+                          f"(need at least {args.degree + 1} per axis)")
+
+
+def _default_toward(args) -> None:
+    if args.toward is None:  # the first other axis: "--axis x --bend 30" just works
+        args.toward = "y" if args.axis == "x" else "x"
+    if args.bend is not None and args.toward == args.axis:
+        raise _UsageError(f"--bend: --toward {args.toward} must differ from --axis {args.axis} (the axis that bends)")
+
+
+def _cmd_deform(args) -> int:
+    if args.squash is not None and args.squash <= 0:
+        raise _UsageError(f"--squash: expected a positive factor, got {args.squash}")
+    if args.taper is not None and args.taper < 0:
+        raise _UsageError(f"--taper: expected a factor >= 0, got {args.taper}")
+    _check_lattice(args)
+    if args.padding < 0:
+        raise _UsageError(f"--padding: expected a margin >= 0, got {args.padding}")
+    if args.axis is None and args.up is not None:  # edits follow the model's up axis
+        args.axis = args.up
+    if args.axis is not None:
+        _default_toward(args)
+    ext = _extension(args.output)
+    from ..io import FORMATS as formats  # empty without OpenMesh
+    if formats and ext not in formats:
+        raise _UsageError(f"OUT: unknown mesh format {ext or '(none)'!r} of {args.output!r}; "
+                          f"expected one of {', '.join('.' + f for f in formats)}")
+    if args.multires is not None and not args.multires > 0:
+        raise _UsageError(f"--multires: expected a positive smoothing, got {args.multires}")
+    if args.multires is not None and (args.drag or args.render or args.backend == "vulkan"):
+        raise _UsageError("--multires: --drag, --render and --backend vulkan are not supported with it yet")
+    if args.render and not args.render.lower().endswith(".png"):
+        raise _UsageError(f"--render: expected a .png file name, got {args.render!r}")
+    if args.size is not None and not args.render:
+        raise _UsageError("--size: only applies to the --render picture; add --render PNG or drop --size")
+    if args.size is None:
+        args.size = (1600, 600)
+    for path in (args.output, args.render):
+        out_dir = os.path.dirname(os.path.abspath(path)) if path else None
+        if out_dir and not os.path.isdir(out_dir):
+            raise FileNotFoundError(2, "output folder does not exist", out_dir)
+
+    # stages: read, embed, deform, write (the bar shows only past one second)
+    bar = Progress("deform", 4)
+    try:
+        return _deform(args, bar)
+    finally:
+        bar.close()
+
+
+def _deform(args, bar) -> int:
+    import numpy as np
+
+    from .. import edits
+    from ..deformer import Deformer
+    from ..lattice import Lattice
+    from ..mesh import Mesh
+
+    mesh = _load(args.input)
+    up_note = ""
+    if args.up is None:
+        from ..comparison import guess_up_axis
+        args.up, why = guess_up_axis(mesh, args.input)
+        up_note = f"up axis {args.up} (guessed: {why}; --up to change)"
+        if args.axis is None:
+            args.axis = args.up
+            _default_toward(args)
+    bar(1, 4, "embedding")
+    lat = Lattice.around(mesh, shape=args.lattice, degree=args.degree, padding=args.padding)
+    P = np.array(lat.rest_points)
+    done = []
+    if args.squash is not None:
+        P = edits.squash(P, args.squash, axis=args.axis)
+        done.append(f"squash {args.squash:g} along {args.axis}")
+    if args.taper is not None:
+        P = edits.taper(P, args.taper, axis=args.axis)
+        done.append(f"taper {args.taper:g}")
+    if args.twist is not None:
+        P = edits.twist(P, args.twist, axis=args.axis)
+        done.append(f"twist {args.twist:g} deg about {args.axis}")
+    if args.bend is not None:
+        P = edits.bend(P, args.bend, axis=args.axis, toward=args.toward)
+        done.append(f"bend {args.bend:g} deg towards {args.toward}")
+    cons = [(np.array(a), np.array(b)) for a, b in (args.drag or [])]
+    if cons:
+        done.append(f"{len(cons)} dragged point{'s' * (len(cons) > 1)}")
+    preserve = args.preserve != "none"
+    if preserve and not mesh.is_closed:
+        e = mesh.edge_report()
+        raise ValueError(f"{args.input} is not a closed mesh ({e['boundary_edges']} boundary, "
+                         f"{e['nonmanifold_edges']} non-manifold, {e['misoriented_edges']} misoriented edges), "
+                         f"so it has no volume to keep; use --preserve none for a plain FFD")
+    if args.multires is not None:
+        return _deform_multires(args, mesh, lat, P, preserve, done, bar)
+    d = Deformer(mesh, lat, backend=args.backend, outside=args.outside)
+    bar(2, 4, "deforming")
+    t0 = time.perf_counter()
+    r = d.deform(P, preserve_volume=preserve, axes=args.preserve if preserve else "xyz", constraints=cons or None)
+    ms = 1e3 * (time.perf_counter() - t0)
+    out = Mesh(r.vertices, mesh.faces)
+    bar(3, 4, "writing")
+    from ..io import save_mesh
+    save_mesh(args.output, out)
+    bar(4, 4)
+    bar.close()
+    print(f"{args.input}: {mesh.n_vertices:,} vertices, {mesh.n_faces:,} faces; lattice "
+          f"{'x'.join(map(str, lat.shape))} degree {args.degree}; {', '.join(done) or 'no edit (identity)'}")
+    if up_note:
+        print(f"  {up_note}")
+    if mesh.is_closed:
+        rest = r.rest_volume
+        plain = f"plain FFD {r.volume_before:.6g} ({100 * (r.volume_before - rest) / rest:+.2f} %)"
+        if preserve:
+            kept = f"preserved along {args.preserve} {r.volume:.6g} (relative error {(r.volume - rest) / rest:+.1e})"
+        elif cons:
+            kept = f"with the dragged points {r.volume:.6g} ({100 * (r.volume - rest) / rest:+.2f} %, not preserved)"
+        else:
+            kept = "not preserved (--preserve none)"
+        print(f"  volume: rest {rest:.6g}, {plain}, {kept}")
+    else:
+        print("  the mesh is not closed: no volume (and no volume correction)")
+    if cons:
+        print(f"  dragged points reached their targets to {r.constraint_error:.1e}")
+    print(f"  folds: {d.check_folds(r.control_points).verdict()}")
+    print(f"  {r.backend} backend, {ms:.1f} ms; wrote {args.output}")
+    if args.render:
+        _render_png(args.render, d, r, args.size, args.up, args.lattice_style)
+        print(f"  picture: {args.render}")
+    return 0
+
+
+def _deform_multires(args, mesh, lat, P, preserve, done, bar) -> int:
+    """``deform --multires SMOOTHING``: the edit applied to the mesh's smooth base,
+    details rebuilt along the deformed base normals (paper 002); with --preserve the
+    base mesh's volume is kept exactly."""
+    from ..io import save_mesh
+    from ..mesh import Mesh
+    from ..multires import Multires, MultiresDeformer
+
+    mr = Multires(mesh, smoothing=args.multires)
+    md = MultiresDeformer(mr, lat, backend=args.backend, outside=args.outside)
+    bar(2, 4, "deforming")
+    t0 = time.perf_counter()
+    r = md.deform(P, preserve_volume=preserve, axes=args.preserve if preserve else "xyz", volume="base")
+    ms = 1e3 * (time.perf_counter() - t0)
+    bar(3, 4, "writing")
+    save_mesh(args.output, Mesh(r.vertices, mesh.faces))
+    bar(4, 4)
+    bar.close()
+    print(f"{args.input}: {mesh.n_vertices:,} vertices, {mesh.n_faces:,} faces; lattice "
+          f"{'x'.join(map(str, lat.shape))} degree {args.degree}; {', '.join(done) or 'no edit (identity)'}")
+    print(f"  {mr}")
+    if mesh.is_closed:
+        kept = f"base volume kept along {args.preserve} (relative error {r.base_volume_error:.1e})" if preserve \
+            else "not preserved (--preserve none)"
+        print(f"  volume: rest {r.rest_volume:.6g}, multiresolution result {r.volume:.6g} "
+              f"(relative error {r.volume_error:.1e}); {kept}")
+    print(f"  {r.backend} backend, {ms:.1f} ms; wrote {args.output}")
+    return 0
+
+
+def _cmd_info(args) -> int:
+    mesh = _load(args.mesh)
+    report = mesh.check()
+    print(f"{args.mesh}: {report}")
+    return 0 if report.is_volume else EXIT_ERROR
+
+
+def _cmd_bench(args) -> int:
+    from .benchmark import run_benchmark
+    _check_lattice(args)
+    bar = Progress("bench", 1)
+    try:
+        run_benchmark(include_shared=not args.no_shared, repeats=args.repeats, with_csr=not args.no_csr,
+                      out=args.json, shape=args.lattice, degree=args.degree, progress=bar)
+    finally:
+        bar.close()
+    return 0
+
+
+def _cmd_devices(args) -> int:
+    from .. import _core, available_backends
+    from ..deformer import _requested_precision
+    wanted = _requested_precision()
+    devices, why = _core.vulkan_devices() if _core.has_vulkan else ([], "")
+    threads = f" ({_core.max_threads()} threads)" if _core.has_openmp() else ""
+    print("backends, best first: " + ", ".join(b + (threads if b == "openmp" else "")
+                                               for b in available_backends(devices)))
+    if not _core.has_vulkan:
+        print("Vulkan: not in this build (it needs libvulkan-dev, glslc and libvulkan-volk-dev at build time)")
+        return 0
+    if not devices:
+        print(f"Vulkan: no device ({why})")
+        return 0
+    print("Vulkan devices (backend='vulkan', device=INDEX or part of the name):")
+    for d in devices:
+        if not d["suitable"]:
+            use = f"unsuitable: {d['reason']}"
+        else:
+            sums = "float-float" if wanted == "float-float" or not d["float64"] else "float64"
+            use = f"sums in {sums}" + (" (VPFFD_VULKAN_PRECISION)" if wanted != "auto" else "")
+            if wanted == "float64" and not d["float64"]:
+                use = "VPFFD_VULKAN_PRECISION=float64, but it has no shaderFloat64"
+            if d["type"] == "cpu":
+                use += "; a software device: backend='auto' takes it only when named"
+        print(f"  {d['index']}  {d['name']}  [{d['type']}, {d['memory_bytes'] / 2 ** 30:.1f} GiB, "
+              f"Vulkan {d['api_version']}]  {use}")
+    return 0
+
+
+# --- parser -----------------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="vpffd", description="Exact volume-preserving B-spline free-form deformation "
+                     "(Hahmann et al. 2012) of triangle meshes.",
+                     epilog="Run 'vpffd COMMAND --help' for the options of each command.")
+    parser.add_argument("--version", action="version", version=f"vpffd {_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    fmt = _Formatter
+
+    p = sub.add_parser("demo", formatter_class=fmt,
+                       help="the paper's twisting cube and bouncing ball, with and without volume preservation",
+                       description="Animates the paper's twisting cube (Figure 6) and bouncing ball (Figure 1) on "
+                       "built-in meshes, plain FFD against the volume-preserving FFD restricted to xy, z and xyz; "
+                       "prints the volume change of every frame and writes PNG frames, animated GIFs, key-frame "
+                       "sheets, volume.png and volume.csv.")
+    p.add_argument("--out", default="demo_out", metavar="DIR", help="output folder (created)")
+    p.add_argument("--size", type=_size, default=(320, 240), metavar="WxH",
+                   help="pixels of one panel (default: 320x240)")
+    p.add_argument("--quick", action="store_true", help="smaller meshes and fewer frames")
+    p.add_argument("--no-render", action="store_true", help="numbers and the volume plot only, no frames")
+    p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("deform", formatter_class=fmt, help="deform a mesh file with lattice edits",
+                       description="Deforms a mesh file with a lattice around it (edits applied in the order "
+                       "squash, taper, twist, bend, then dragged points) and keeps its volume exactly.")
+    p.add_argument("input", metavar="IN", help="mesh file to read (the formats of vpffd.load_mesh)")
+    p.add_argument("output", metavar="OUT", help="mesh file to write; the extension picks the format")
+    p.add_argument("--lattice", type=_lattice_shape, default=(8, 8, 8), metavar="NxNxN",
+                   help="control points per axis (default: 8x8x8)")
+    p.add_argument("--degree", type=int, default=3, help="B-spline degree, 1..5")
+    p.add_argument("--padding", type=_finite, default=0.05, help="lattice margin, in box extents")
+    p.add_argument("--outside", choices=["error", "extrapolate"], default="error",
+                   help="points outside the lattice (--drag sources): refuse, or continue the boundary "
+                        "polynomials")
+    p.add_argument("--twist", type=_finite, metavar="DEG", help="twist the top by DEG degrees about --axis")
+    p.add_argument("--bend", type=_finite, metavar="DEG", help="bend the --axis extent into an arc of DEG degrees")
+    p.add_argument("--taper", type=_finite, metavar="FACTOR", help="scale the top's cross-section by FACTOR")
+    p.add_argument("--squash", type=_finite, metavar="FACTOR", help="scale along --axis by FACTOR")
+    p.add_argument("--axis", choices=["x", "y", "z"], default=None,
+                   help="axis of the edits (default: the up axis, so --squash squashes downwards)")
+    p.add_argument("--up", choices=["x", "y", "z"], default=None,
+                   help="the model's up axis: upwards in the picture and the default --axis (default: guessed "
+                        "from a flat base or the file's convention, and printed)")
+    p.add_argument("--toward", choices=["x", "y", "z"],
+                   help="direction --bend curves towards (default: x, or y when --axis is x)")
+    p.add_argument("--drag", type=_drag, action="append", metavar="X,Y,Z:TX,TY,TZ",
+                   help="move the rest-space point X,Y,Z to TX,TY,TZ exactly (repeatable)")
+    p.add_argument("--preserve", choices=["xyz", "xy", "xz", "yz", "x", "y", "z", "none"], default="xyz",
+                   help="axes the volume correction may move control points along, or none")
+    p.add_argument("--backend", choices=["auto", "openmp", "serial", "vulkan"], default="auto",
+                   help="where frames run (default auto: a GPU for large meshes when there is one; the Vulkan "
+                        "device and precision follow VPFFD_VULKAN_DEVICE and VPFFD_VULKAN_PRECISION)")
+    p.add_argument("--multires", type=_finite, metavar="SMOOTHING",
+                   help="multiresolution edit: deform the mesh's base faired by SMOOTHING implicit steps and "
+                        "rebuild the details along its normals (keeps the base volume)")
+    p.add_argument("--render", metavar="PNG",
+                   help="also write a picture: rest | plain FFD | volume-preserved, captioned with the volumes, "
+                        "coloured by the local volume change det J")
+    p.add_argument("--size", type=_size, default=None, metavar="WxH",
+                   help="--render picture size (default: 1600x600; only with --render)")
+    p.add_argument("--lattice-style", choices=["none", "faint", "full"], default="faint",
+                   help="the lattice in the --render picture: hidden, thin translucent lines, or lines and "
+                        "control points")
+    p.set_defaults(func=_cmd_deform)
+
+    p = sub.add_parser("info", formatter_class=fmt, help="check a mesh file (closed, oriented, volume, ...)",
+                       description="Reads a mesh file and reports what vpffd needs of it: closed, consistently "
+                       "oriented and outward, its volume. Exit status 1 when it cannot be volume-preserved.")
+    p.add_argument("mesh", metavar="MESH", help="mesh file")
+    p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser("bench", formatter_class=fmt, help="CPU benchmark table",
+                       description="Times FFD, the volume coefficients and whole frames on built-in meshes "
+                       "(and the shared test meshes when present); prints a markdown table.")
+    p.add_argument("--repeats", type=_positive_int, default=7, help="timed runs per case (median)")
+    p.add_argument("--lattice", type=_lattice_shape, default=(10, 10, 10), metavar="NxNxN",
+                   help="control points per axis (default: 10x10x10)")
+    p.add_argument("--degree", type=int, default=3, help="B-spline degree")
+    p.add_argument("--no-shared", action="store_true", help="built-in meshes only")
+    p.add_argument("--no-csr", action="store_true", help="skip the CSR coefficient method")
+    p.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
+    p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("devices", formatter_class=fmt, help="list the backends and Vulkan devices",
+                       description="Lists the backends this build can run here and the Vulkan devices with "
+                       "what vpffd would do with each.")
+    p.set_defaults(func=_cmd_devices)
+    return parser
+
+
+def _version() -> str:
+    try:
+        from .. import __version__
+        return __version__
+    except ImportError:  # pragma: no cover - the compiled core is missing
+        return "(not built)"
+
+
+def _one_line(e: BaseException) -> str:
+    if isinstance(e, OSError) and e.filename is not None and e.strerror:
+        msg = f"{e.filename}: {e.strerror}"
+    else:
+        msg = str(e) or type(e).__name__
+    return " ".join(msg.split())
+
+
+def main(argv=None) -> int:
+    """Runs the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    prog = f"vpffd {args.command}"
+
+    def one_line_warning(message, category, filename, lineno, file=None, line=None):
+        print(f"{prog}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = one_line_warning
+            return args.func(args)
+    except _UsageError as e:
+        print(f"{prog}: error: {e} (see '{prog} --help')", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:  # one line, not a traceback, for whatever went wrong
+        if os.environ.get("VPFFD_TRACEBACK"):
+            raise
+        known = isinstance(e, (ValueError, TypeError, RuntimeError, OSError))
+        kind = "error" if known else f"internal error ({type(e).__name__})"
+        print(f"{prog}: {kind}: {_one_line(e)}", file=sys.stderr)
+        return EXIT_ERROR
+
+
+if __name__ == "__main__":
+    sys.exit(main())
