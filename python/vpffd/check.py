@@ -66,9 +66,15 @@ class MeshCheck:
 
     # --- verdicts --------------------------------------------------------------
     @property
-    def is_closed(self) -> bool:
-        """No boundary and no non-manifold edge."""
+    def is_watertight(self) -> bool:
+        """No boundary and no non-manifold edge (topology only; winding not looked at)."""
         return self.boundary_edges == 0 and self.nonmanifold_edges == 0
+
+    @property
+    def is_closed(self) -> bool:
+        """Watertight and consistently wound: a closed surface, which bounds a volume.
+        The same meaning as ``Mesh.is_closed`` (and ``Deformer``'s check)."""
+        return self.is_watertight and self.misoriented_edges == 0
 
     @property
     def is_consistently_oriented(self) -> bool:

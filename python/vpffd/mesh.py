@@ -78,7 +78,9 @@ class Mesh:
 
     @property
     def is_closed(self) -> bool:
-        """True when every edge has exactly two faces, wound consistently."""
+        """True when every edge has exactly two faces, wound consistently: a closed
+        surface, which bounds a volume. The same meaning as ``MeshCheck.is_closed``;
+        ``check().is_watertight`` looks at the topology alone."""
         e = self.edge_report()
         return e["boundary_edges"] == 0 and e["nonmanifold_edges"] == 0 and e["misoriented_edges"] == 0
 

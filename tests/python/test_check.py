@@ -30,6 +30,7 @@ def test_clean_octahedron():
     c = vpffd.Mesh(OCT_V, OCT_F).check()
     expect(c)
     assert c.is_volume and c.edges == 12 and c.euler_characteristic == 2
+    assert c.is_closed and c.is_watertight and vpffd.Mesh(OCT_V, OCT_F).is_closed
     assert c.signed_volume == pytest.approx(4 / 3)
     assert c.problems() == []
     assert "outward" in str(c)
@@ -71,6 +72,9 @@ def test_inconsistent_orientation():
     c = vpffd.Mesh(OCT_V, F).check()
     expect(c, misoriented_edges=3)
     assert not c.is_consistently_oriented and np.isnan(c.signed_volume)
+    # Watertight but not a closed surface: one meaning of "closed" for the check and the mesh.
+    assert c.is_watertight and not c.is_closed
+    assert not vpffd.Mesh(OCT_V, F).is_closed
     fixed = vpffd.Mesh(OCT_V, F).oriented()
     assert fixed.check().is_volume
     canon = lambda F: [tuple(np.roll(f, -np.argmin(f))) for f in F]  # noqa: E731  (same cyclic order)

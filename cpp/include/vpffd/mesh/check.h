@@ -42,8 +42,12 @@ struct MeshCheckReport {
   /// Signed volume when the mesh is closed and consistently oriented, else NaN.
   double signed_volume = std::numeric_limits<double>::quiet_NaN();
 
-  bool closed() const { return boundary_edges == 0 && nonmanifold_edges == 0; }
+  /// Every edge has exactly two faces (no boundary, nothing non-manifold): topology only.
+  bool watertight() const { return boundary_edges == 0 && nonmanifold_edges == 0; }
   bool consistently_oriented() const { return misoriented_edges == 0; }
+  /// Watertight and consistently wound: a closed surface, which bounds a volume. The
+  /// same meaning as EdgeReport::closed(), Deformer::is_closed() and Python's is_closed.
+  bool closed() const { return watertight() && consistently_oriented(); }
   /// Closed, consistent, but the faces point inside (negative volume).
   bool inward() const { return signed_volume < 0; }
   /// Bounds a volume that vpffd can preserve: closed, consistently oriented, outward.

@@ -36,6 +36,8 @@ struct EdgeReport {
   Index boundary_edges = 0;     ///< used by one face
   Index nonmanifold_edges = 0;  ///< used by more than two faces
   Index misoriented_edges = 0;  ///< used twice in the same direction (inconsistent winding)
+  /// Every edge has exactly two faces, wound consistently: a closed surface, which
+  /// bounds a volume (the meaning of "closed" everywhere in vpffd).
   bool closed() const { return boundary_edges == 0 && nonmanifold_edges == 0 && misoriented_edges == 0; }
 };
 
