@@ -342,7 +342,8 @@ class Lattice:
         """Plain FFD of arbitrary rest-space points: (n, 3) -> (n, 3).
 
         ``outside='extrapolate'`` continues the boundary polynomial pieces for points
-        outside the box instead of raising."""
+        outside the box instead of raising. Along periodic axes nothing is outside:
+        points are wrapped into the box (see the class's ``seam``)."""
         P = self._control(control_points)
         X = _arrays.points(points, "Lattice.deform_points: points")
         return _core.ffd_points(self._spec, self._expand(P), X, outside)
