@@ -8,7 +8,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['BackendUnavailableError', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'RayScene', 'SolverError', 'VulkanDeformer', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
+__all__: list[str] = ['BackendUnavailableError', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'RayScene', 'SolverError', 'VulkanDeformer', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
 class InvalidInputError(ValueError):
     pass
 class SolverError(RuntimeError):
@@ -23,7 +23,25 @@ class LatticeSpec:
     """
     Structure of a B-spline lattice: degrees, knots, world box.
     """
-    def __init__(self, degree: typing.Annotated[collections.abc.Sequence[typing.SupportsInt | typing.SupportsIndex], "FixedSize(3)"], knots: typing.Annotated[collections.abc.Sequence[collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex]], "FixedSize(3)"], box_min: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], box_max: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"]) -> None:
+    def __init__(self, degree: typing.Annotated[collections.abc.Sequence[typing.SupportsInt | typing.SupportsIndex], "FixedSize(3)"], knots: typing.Annotated[collections.abc.Sequence[collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex]], "FixedSize(3)"], box_min: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], box_max: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], seams: typing.Annotated[collections.abc.Sequence[str], "FixedSize(3)"] = ['none', 'none', 'none']) -> None:
+        ...
+    def expand_control_points(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        """
+        (N_ext, 3) extended control points of (N, 3) distinct ones (periodic.h).
+        """
+    def tie_sources(self) -> list[int]:
+        """
+        Per extended control point, the distinct one it copies.
+        """
+    def wrap_points(self, points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> tuple:
+        """
+        (points wrapped into the box along periodic axes, mirrored flags).
+        """
+    @property
+    def seams(self) -> typing.Annotated[list[str], "FixedSize(3)"]:
+        ...
+    @property
+    def distinct_shape(self) -> typing.Annotated[list[int], "FixedSize(3)"]:
         ...
     def parameters(self, points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
         """
@@ -166,6 +184,8 @@ def check_folds(lattice: LatticeSpec, control_points: typing.Annotated[numpy.typ
     """
     Fold-over check of a lattice: a dict with the verdict, per-cell arrays and the witness.
     """
+def periodic_uniform_knots(n: typing.SupportsInt | typing.SupportsIndex, degree: typing.SupportsInt | typing.SupportsIndex, lo: typing.SupportsFloat | typing.SupportsIndex = 0.0, hi: typing.SupportsFloat | typing.SupportsIndex = 1.0) -> list[float]:
+    ...
 def clamped_uniform_knots(n: typing.SupportsInt | typing.SupportsIndex, degree: typing.SupportsInt | typing.SupportsIndex, lo: typing.SupportsFloat | typing.SupportsIndex = 0.0, hi: typing.SupportsFloat | typing.SupportsIndex = 1.0) -> list[float]:
     ...
 def deformed_normals_exact(jacobians: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]", "flags.c_contiguous"], rest_normals: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:

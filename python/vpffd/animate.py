@@ -27,8 +27,8 @@ from .mesh import Mesh
 
 InvalidInputError = _core.InvalidInputError
 
-__all__ = ["Animator", "Twist", "Bend", "Taper", "BouncingBall", "Jelly", "AnimationResult", "run_animation",
-           "ease"]
+__all__ = ["Animator", "Twist", "Bend", "Taper", "BouncingBall", "Jelly", "PathOffset", "AnimationResult",
+           "run_animation", "ease"]
 
 
 def ease(s, kind: str = "linear"):
@@ -406,6 +406,86 @@ class Jelly(Animator):
         i = min(int(np.floor(x)), self._traj.shape[0] - 2)
         f = x - i
         return ((1.0 - f) * self._traj[i] + f * self._traj[i + 1]).reshape(self.rest.shape)
+
+
+class PathOffset:
+    """Moves an object through a lattice's rest box instead of moving control points
+    (the whales circling a ring, ants walking a Moebius band, a car over terrain):
+    rest positions X(t) = X + o(t), o(t) = speed * t * direction.
+
+    Feed ``positions(X, t)`` to ``Deformer.set_rest_vertices`` (or
+    ``Lattice.deform_points``) each frame; the control points stay as they are.
+
+    Parameters
+    ----------
+    lattice : vpffd.Lattice
+    direction : {"x", "y", "z"} or (3,) float
+        an axis, or a direction in rest space (normalised here).
+    speed : float
+        world units per second along ``direction`` (any sign).
+    wrap : bool
+        along the lattice's periodic axes, reduce the offset by whole periods so it
+        stays bounded however long the animation runs, without changing what any
+        point maps to: the box's extent L for the "closed" seam, 2 L for "twist"
+        (one lap comes back mirrored), and not at all for "shift" (there
+        D(x + L) = D(x) + L: the object really travels on). The object itself is
+        moved as a whole (not each vertex into the box), so its rest volume stays.
+        Along open axes the offset is never wrapped (the object leaves the box, and
+        the Deformer then raises unless ``outside="extrapolate"``).
+    """
+
+    def __init__(self, lattice, direction="x", speed: float = 1.0, wrap: bool = True):
+        if not isinstance(lattice, Lattice):
+            raise TypeError(f"PathOffset: expected a vpffd.Lattice, got {type(lattice).__name__}")
+        if isinstance(direction, str) or isinstance(direction, (int, np.integer)):
+            d = np.zeros(3)
+            d[_axis(direction, "direction", "PathOffset")] = 1.0
+        else:
+            try:
+                d = np.asarray(direction, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise InvalidInputError(f"PathOffset: direction must be an axis name or 3 numbers, got "
+                                        f"{direction!r}") from None
+            if d.shape != (3,) or not np.isfinite(d).all() or not np.linalg.norm(d) > 0:
+                raise InvalidInputError(f"PathOffset: direction must be an axis name or 3 finite numbers, not all "
+                                        f"zero, got {direction!r}")
+            d = d / np.linalg.norm(d)
+        if not isinstance(wrap, (bool, np.bool_)):
+            raise TypeError(f"PathOffset: wrap must be a bool, got {type(wrap).__name__}")
+        self.lattice = lattice
+        self.direction = d
+        self.speed = _finite(speed, "speed", "PathOffset")
+        self.wrap = bool(wrap)
+        ext = lattice.box_max - lattice.box_min
+        seams = lattice.seams
+        # Per axis, the period of the map x -> D(x) (0: none to wrap by).
+        self.periods = np.array([{"closed": ext[a], "twist": 2 * ext[a]}.get(seams.get("xyz"[a]), 0.0)
+                                 for a in range(3)])
+
+    def offset(self, t) -> np.ndarray:
+        """(3,) rest-space offset at time ``t`` seconds."""
+        t = _finite(t, "time", "PathOffset")
+        o = self.speed * t * self.direction
+        if self.wrap:
+            p = self.periods
+            o = np.where(p > 0, o - p * np.floor(o / np.where(p > 0, p, 1.0)), o)
+        return o
+
+    def positions(self, rest_vertices, t) -> np.ndarray:
+        """(n, 3) rest positions at time ``t``: ``rest_vertices`` ((n, 3) or a Mesh)
+        plus ``offset(t)``. The input is not modified."""
+        if hasattr(rest_vertices, "vertices"):
+            rest_vertices = rest_vertices.vertices
+        from . import _arrays
+        X = _arrays.points(rest_vertices, "PathOffset.positions: rest_vertices")
+        return X + self.offset(t)
+
+    def __call__(self, rest_vertices, t) -> np.ndarray:
+        return self.positions(rest_vertices, t)
+
+    def __repr__(self) -> str:
+        return (f"PathOffset(direction={self.direction.tolist()}, speed={self.speed}, wrap={self.wrap}, "
+                f"periods={self.periods.tolist()})")
 
 
 @dataclass

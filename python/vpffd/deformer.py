@@ -243,6 +243,15 @@ class Deformer:
         self.lattice = lattice
         _check_memory(lattice.n_control_points, "Deformer", _FRAME_BYTES_PER_CONTROL_POINT,
                       _BYTES_PER_VERTEX * self.mesh.n_vertices)
+        if lattice.periodic:
+            # The Vulkan kernels evaluate the lattice as given; the periodic ties and the
+            # folded solve are the CPU's (lattice/periodic.h).
+            if backend == "vulkan":
+                raise BackendUnavailableError(
+                    f"backend 'vulkan': the lattice is periodic along {lattice.periodic!r}, which only the CPU "
+                    f"backends support; use backend='auto', 'openmp' or 'serial'")
+            if backend == "auto":
+                backend = "openmp" if _core.has_openmp() else "serial"
         self.backend, self._threads, selector = _resolve_backend(backend, threads, device, self.mesh.n_vertices)
         self._vk = None
         if self.backend == "vulkan":
@@ -289,15 +298,22 @@ class Deformer:
 
     def basis_matrix(self) -> sp.csr_matrix:
         """(V, N) scipy CSR basis matrix B: ``ffd(P) == B @ P.reshape(-1, 3)``.
-        Column c is control point ``control_points.reshape(-1, 3)[c]``."""
+        Column c is control point ``control_points.reshape(-1, 3)[c]`` (the distinct
+        ones of a periodic lattice; refused with a "shift" seam, where the map is affine)."""
+        return self.lattice._linear_basis(self._extended_basis(), "Deformer.basis_matrix")
+
+    def _extended_basis(self) -> sp.csr_matrix:
+        """(V, N_ext) basis matrix over the extended lattice (== basis_matrix() without periodic axes)."""
         data, indices, indptr, shape = self._d.basis_matrix(self._threads)
         return sp.csr_matrix((data, indices, indptr), shape=shape)
 
     def face_matrix(self) -> sp.csr_matrix:
         """(N, F) the paper's coefficient matrix: alpha = M @ n_x, n_x the x
-        components of the unnormalised face normals (Section 6.2)."""
+        components of the unnormalised face normals (Section 6.2). Periodic lattice:
+        rows are the distinct control points (a tied copy's row added to its own)."""
         data, indices, indptr, shape = self._d.face_matrix(self._threads)
-        return sp.csr_matrix((data, indices, indptr), shape=shape)
+        M = sp.csr_matrix((data, indices, indptr), shape=shape)
+        return (self.lattice._fold_matrix().T @ M).tocsr() if self.lattice.periodic else M
 
     def face_matrix_nnz(self) -> int:
         """Non-zeros of the paper's face matrix (its Table 1); builds it once."""
@@ -311,7 +327,10 @@ class Deformer:
         if isinstance(a, (bool, np.bool_)) or a not in (0, 1, 2):
             raise InvalidInputError(f"axis: expected 'x', 'y', 'z' or 0..2, got {axis!r}")
         X = _arrays.points(vertices, "volume_coefficients: vertices", rows=self.mesh.n_vertices)
-        return self._d.volume_coefficients(X, a, method, self._threads)
+        alpha, volume = self._d.volume_coefficients(X, a, method, self._threads)
+        if self.lattice.periodic:  # a move of a distinct point moves its tied copies too
+            alpha = self.lattice._fold_matrix().T @ alpha
+        return alpha, volume
 
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", weights=None,
                fixed=None, constraints=None, target_volume=None, method: str = "traversal",

@@ -104,6 +104,8 @@ class FoldReport:
             lo, hi = t[lattice.degree[a]], t[len(t) - lattice.degree[a] - 1]
             edges.append(lattice.box_min[a] + (u - lo) / (hi - lo) * (lattice.box_max[a] - lattice.box_min[a]))
         self.cell_edges = tuple(edges)
+        # Periodic axes: a rest point is in the cell of its wrapped twin.
+        self._wrap = lattice._spec.wrap_points if lattice.periodic else None
 
     @property
     def folded_cells(self) -> np.ndarray:
@@ -114,6 +116,8 @@ class FoldReport:
         """(n, 3) int64 cell indices of rest-space points (points outside the box
         get the nearest boundary cell)."""
         X = _arrays.points(points, "FoldReport.cell_of: points", allow_empty=True)
+        if self._wrap is not None and len(X):
+            X = self._wrap(X)[0]
         out = np.empty((len(X), 3), dtype=np.int64)
         for a in range(3):
             e = self.cell_edges[a]
@@ -185,7 +189,10 @@ def check_folds(lattice, control_points=None, depth: int = DEFAULT_DEPTH, thread
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
                                 or not 1 <= threads <= 4096):
         raise InvalidInputError(f"check_folds: threads must be an integer in 1..4096 or None, got {threads!r}")
-    return FoldReport(_core.check_folds(lattice._spec, P, _depth(depth), int(threads or 0)), lattice)
+    # A periodic lattice is certified on its extended net: every cell of the box, the
+    # seam's included (cell indices are those of the extended lattice).
+    return FoldReport(_core.check_folds(lattice._spec, lattice._expand(P), _depth(depth), int(threads or 0)),
+                      lattice)
 
 
 def vertex_det(deformer, control_points=None) -> np.ndarray:

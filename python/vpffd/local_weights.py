@@ -48,7 +48,8 @@ def local_volume_change(deformer, control_points=None) -> np.ndarray:
     per_vertex = np.zeros(deformer.mesh.n_vertices)
     for i in range(3):
         np.add.at(per_vertex, F[:, i], dV / 3.0)
-    B = deformer.basis_matrix()
+    # The support of each distinct control point (its periodic copies' included).
+    B = deformer.lattice._fold_columns(deformer._extended_basis())
     return np.asarray(B.T @ per_vertex).reshape(-1)
 
 

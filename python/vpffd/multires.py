@@ -242,6 +242,9 @@ class MultiresDeformer:
             raise BackendUnavailableError("backend 'openmp': this build has no OpenMP")
         if backend == "auto":
             backend = "openmp" if _core.has_openmp() else "serial"
+        if lattice.periodic:
+            raise InvalidInputError(f"MultiresDeformer: periodic lattices (periodic={lattice.periodic!r}) are not "
+                                    "supported by the multiresolution FFD map; use a Deformer on the fine mesh")
         self.backend = backend
         self._threads = 1 if backend == "serial" else _threads_arg(threads)
         self.multires = multires

@@ -63,7 +63,7 @@ def deformed_normals(deformer, control_points=None, method: str = "exact", rest_
         if not (np.isfinite(eps) and eps > 0):
             raise InvalidInputError(f"deformed_normals: eps must be positive, got {eps}")
         P = lat._control(control_points)
-        return _core.deformed_normals_tangent(lat._spec, P, m.vertices, N0, eps)
+        return _core.deformed_normals_tangent(lat._spec, lat._expand(P), m.vertices, N0, eps)
     raise InvalidInputError(f"deformed_normals: method must be 'exact' or 'tangent', got {method!r}")
 
 

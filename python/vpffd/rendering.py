@@ -166,6 +166,8 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
         if not hasattr(lattice, "control_points"):
             raise TypeError(f"render: lattice must be a vpffd.Lattice, got {type(lattice).__name__}")
         cp = np.asarray(lattice.control_points, dtype=np.float64)
+    if cp is not None and getattr(lattice, "periodic", "") and cp.shape[:3] == tuple(lattice.shape):
+        cp = lattice.expanded_control_points(cp)  # draw the tied copies too: the net closes
     if cp is not None and (cp.ndim != 4 or cp.shape[3] != 3):
         raise InvalidInputError(f"render: control_points must have shape (nu, nv, nw, 3), got {cp.shape}")
     if cp is not None and not np.isfinite(cp).all():

@@ -4,19 +4,83 @@
 
 namespace vpffd::bindings {
 
+namespace {
+
+Seam parse_seam(const std::string& s) {
+  if (s == "none") return Seam::None;
+  if (s == "shift") return Seam::Shift;
+  if (s == "closed") return Seam::Closed;
+  if (s == "twist") return Seam::Twist;
+  throw InvalidInputError("seam: expected 'none', 'shift', 'closed' or 'twist', got '" + s + "'");
+}
+
+const char* seam_name(Seam s) {
+  switch (s) {
+    case Seam::Shift: return "shift";
+    case Seam::Closed: return "closed";
+    case Seam::Twist: return "twist";
+    default: return "none";
+  }
+}
+
+}  // namespace
+
 void bind_lattice(py::module_& m) {
   py::class_<Lattice>(m, "LatticeSpec", "Structure of a B-spline lattice: degrees, knots, world box.")
       .def(py::init([](std::array<int, 3> degree, std::array<std::vector<double>, 3> knots, Vector3d box_min,
-                       Vector3d box_max) {
+                       Vector3d box_max, std::array<std::string, 3> seams) {
              Lattice L;
              L.degree = degree;
              L.knots = std::move(knots);
              L.box_min = box_min;
              L.box_max = box_max;
+             for (int a = 0; a < 3; ++a) L.seam[a] = parse_seam(seams[a]);
              validate_lattice(L);
              return L;
            }),
-           py::arg("degree"), py::arg("knots"), py::arg("box_min"), py::arg("box_max"))
+           py::arg("degree"), py::arg("knots"), py::arg("box_min"), py::arg("box_max"),
+           py::arg("seams") = std::array<std::string, 3>{"none", "none", "none"})
+      .def_property_readonly("seams",
+                             [](const Lattice& L) {
+                               return std::array<std::string, 3>{seam_name(L.seam[0]), seam_name(L.seam[1]),
+                                                                 seam_name(L.seam[2])};
+                             })
+      .def_property_readonly("distinct_shape",
+                             [](const Lattice& L) {
+                               return std::array<int, 3>{L.distinct_dim(0), L.distinct_dim(1), L.distinct_dim(2)};
+                             })
+      .def(
+          "expand_control_points",
+          [](const Lattice& L, RefV P) {
+            const Ties t = make_ties(L);
+            VPFFD_CHECK(P.rows() == t.n_distinct, "expand_control_points: ", P.rows(),
+                        " control points, the lattice has ", t.n_distinct, " distinct ones");
+            return expand_points(t, P);
+          },
+          py::arg("control_points"), "(N_ext, 3) extended control points of (N, 3) distinct ones (periodic.h).")
+      .def(
+          "tie_sources",
+          [](const Lattice& L) {
+            const Ties t = make_ties(L);
+            if (!t.identity) return t.source;
+            std::vector<std::int32_t> id(static_cast<size_t>(t.n_distinct));
+            for (size_t i = 0; i < id.size(); ++i) id[i] = static_cast<std::int32_t>(i);
+            return id;
+          },
+          "Per extended control point, the distinct one it copies.")
+      .def(
+          "wrap_points",
+          [](const Lattice& L, RefV X) {
+            RowMatrixX3d W(X.rows(), 3);
+            std::vector<std::uint8_t> mirrored(static_cast<size_t>(X.rows()));
+            for (Index r = 0; r < X.rows(); ++r) {
+              bool f = false;
+              W.row(r) = wrap_point(L, X.row(r).transpose(), &f).transpose();
+              mirrored[r] = f;
+            }
+            return py::make_tuple(W, mirrored);
+          },
+          py::arg("points"), "(points wrapped into the box along periodic axes, mirrored flags).")
       .def_readonly("degree", &Lattice::degree)
       .def_readonly("knots", &Lattice::knots)
       .def_readonly("box_min", &Lattice::box_min)
@@ -33,6 +97,8 @@ void bind_lattice(py::module_& m) {
           py::arg("points"), "(n, 3) parameters (u, v, w) of world points.");
 
   m.def("clamped_uniform_knots", &clamped_uniform_knots, py::arg("n"), py::arg("degree"), py::arg("lo") = 0.0,
+        py::arg("hi") = 1.0);
+  m.def("periodic_uniform_knots", &periodic_uniform_knots, py::arg("n"), py::arg("degree"), py::arg("lo") = 0.0,
         py::arg("hi") = 1.0);
   m.def("greville", [](const std::vector<double>& t, int n, int d) { return greville(t, n, d); });
   m.def(

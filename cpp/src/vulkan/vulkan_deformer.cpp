@@ -799,6 +799,10 @@ VulkanDeformer::VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Ei
                                Lattice L, OutsidePolicy policy, const std::string& device,
                                Precision precision)
     : impl_(std::make_unique<Impl>()) {
+  // The shaders evaluate the lattice as given; periodic ties (lattice/periodic.h) are the CPU's.
+  if (L.any_periodic())
+    throw BackendUnavailableError(
+        "VulkanDeformer: periodic lattices run on the CPU backends only (the device has no periodic ties)");
   // The CPU Deformer validates the input exactly as the CPU backend does and keeps
   // the exact (float64) rest volume, the edge report and the embedding.
   impl_->cpu = std::make_unique<Deformer>(V, F, std::move(L), policy);

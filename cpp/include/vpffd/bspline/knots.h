@@ -30,6 +30,19 @@ inline std::vector<double> clamped_uniform_knots(int n, int d, double lo = 0.0, 
   return t;
 }
 
+/// Uniform unclamped knots of a periodic axis with `n` distinct control points of
+/// degree `d`: t_i = lo + (i - d) h, h = (hi - lo) / n, i = 0..n+2d, so that the
+/// domain [t_d, t_{n+d}] is [lo, hi] and holds n spans.
+/// @returns n + 2d + 1 knots (for the n + d control points of the extended axis).
+inline std::vector<double> periodic_uniform_knots(int n, int d, double lo = 0.0, double hi = 1.0) {
+  VPFFD_CHECK(d >= 1 && d <= kMaxDegree, "periodic_uniform_knots: degree ", d, " not in [1, ", kMaxDegree, "]");
+  VPFFD_CHECK(n >= d + 1, "periodic_uniform_knots: ", n, " distinct control points are too few for degree ", d,
+              " (need at least degree + 1 = ", d + 1, ")");
+  std::vector<double> t(static_cast<size_t>(n + 2 * d + 1));
+  for (int i = 0; i < n + 2 * d + 1; ++i) t[i] = lo + (hi - lo) * static_cast<double>(i - d) / n;
+  return t;
+}
+
 /// Checks that `t` is a usable knot vector for `n` control points of degree `d`:
 /// n + d + 1 finite, non-decreasing knots, a non-empty domain [t_d, t_n], and
 /// no interior knot repeated more than d times (which would tear the deformation).

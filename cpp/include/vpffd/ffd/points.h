@@ -8,11 +8,12 @@
 #include "vpffd/core/parallel.h"
 #include "vpffd/ffd/kernels.h"
 #include "vpffd/lattice/embed.h"
+#include "vpffd/lattice/periodic.h"
 
 namespace vpffd {
 
 /// Plain FFD of arbitrary points (eq. 1).
-/// @param[in] P  N x 3 control points of lattice L
+/// @param[in] P  N x 3 control points of lattice L (the extended ones of a periodic lattice)
 /// @param[in] X  #X x 3 rest-space points
 /// @returns #X x 3 deformed points
 inline RowMatrixX3d ffd_points(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& P,
@@ -31,6 +32,8 @@ inline RowMatrixX3d ffd_points(const Lattice& L, const Eigen::Ref<const RowMatri
       detail::ffd_kernel<decltype(K)::value>(T, E, Px.data(), Py.data(), Pz.data(), out.data(), b, e);
     });
   });
+  const RowMatrixX3d shift = seam_translations(L, X);  // periodic "shift" seams: D(x + kL) = D(x) + kL
+  if (shift.rows() > 0) out += shift;
   return out;
 }
 

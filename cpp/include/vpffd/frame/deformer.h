@@ -18,11 +18,13 @@
 
 #include "vpffd/correction/options.h"
 #include "vpffd/correction/solve.h"
+#include "vpffd/correction/tied_solve.h"
 #include "vpffd/ffd/basis_matrix.h"
 #include "vpffd/ffd/kernels.h"
 #include "vpffd/ffd/points.h"
 #include "vpffd/ffd/vertex_order.h"
 #include "vpffd/lattice/embed.h"
+#include "vpffd/lattice/periodic.h"
 #include "vpffd/mesh/validate.h"
 #include "vpffd/volume/coefficients.h"
 #include "vpffd/mesh/volume.h"
@@ -40,6 +42,7 @@ struct FramePlan {
   Index free_points = 0;      ///< control points with inv_weight > 0 (checked against the conditions)
   Embedding sources;          ///< the constraint points embedded in the lattice
   std::vector<SparseVec> rows;  ///< per constraint: its basis row (control index, value)
+  const Ties* ties = nullptr;   ///< periodic lattice: rows index the extended points (periodic.h)
 };
 
 /// r . x for a sparse row r.
@@ -75,6 +78,7 @@ class Deformer {
       : lattice_(std::move(L)), V_(V), F_(F), policy_(policy) {
     validate_mesh(V_, F_, "Deformer");
     validate_lattice(lattice_);
+    ties_ = make_ties(lattice_);
     tables_ = basis_tables(lattice_);
     {
       // Frames run in cell order (vertex_order.h); the faces are renumbered to match
@@ -83,6 +87,13 @@ class Deformer {
       order_ = cell_order(tables_, E);
       rank_ = inverse_order(order_);
       embedding_ = permute_embedding(E, order_);
+    }
+    {
+      const RowMatrixX3d T = seam_translations(lattice_, V_);
+      if (T.rows() > 0) {
+        seam_shift_.resize(T.rows(), 3);
+        for (Index i = 0; i < T.rows(); ++i) seam_shift_.row(i) = T.row(order_[i]);
+      }
     }
     // Faces follow their lowest vertex in processing order, so the face pass and
     // the per-vertex face sums stay local too.
@@ -110,7 +121,10 @@ class Deformer {
   const RowMatrixX3i& faces() const { return F_; }
   Index n_vertices() const { return V_.rows(); }
   Index n_faces() const { return F_.rows(); }
-  Index n_control_points() const { return lattice_.n_control_points(); }
+  /// Control points a frame takes: the distinct ones of a periodic lattice.
+  Index n_control_points() const { return ties_.n_distinct; }
+  /// The periodic tie map (identity without periodic axes).
+  const Ties& ties() const { return ties_; }
   const EdgeReport& edges() const { return edges_; }
   bool is_closed() const { return edges_.closed(); }
   /// Per-vertex basis data in the caller's vertex order (a copy).
@@ -161,13 +175,15 @@ class Deformer {
   /// Jacobians dD/dx at the vertices: #V x 9, row-major 3x3 per vertex.
   RowMatrixXd jacobians(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "jacobians");
-    const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    const RowMatrixX3d Pe = expand_points(ties_, P);
+    const Eigen::VectorXd Px = Pe.col(0), Py = Pe.col(1), Pz = Pe.col(2);
     RowMatrixXd Js(n_vertices(), 9), J(n_vertices(), 9);
     const Vector3d s = parameter_scale(lattice_);
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
       detail::jacobian_kernel(tables_, embedding_, Px.data(), Py.data(), Pz.data(), s, Js.data(), b, e);
       for (Index i = b; i < e; ++i) J.row(order_[i]) = Js.row(i);
     });
+    unmirror_jacobians(lattice_, V_, J);
     return J;
   }
 
@@ -218,11 +234,15 @@ class Deformer {
   }
 
   void eval_ffd(const Eigen::Ref<const RowMatrixX3d>& P, double* out, int threads) const {
-    const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    const RowMatrixX3d Pe = expand_points(ties_, P);
+    const Eigen::VectorXd Px = Pe.col(0), Py = Pe.col(1), Pz = Pe.col(2);
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
         detail::ffd_kernel<decltype(K)::value>(tables_, embedding_, Px.data(), Py.data(), Pz.data(), out, b, e);
       });
+      if (seam_shift_.rows() > 0)
+        for (Index i = b; i < e; ++i)
+          for (int c = 0; c < 3; ++c) out[3 * i + c] += seam_shift_(i, c);
     });
   }
 
@@ -282,6 +302,8 @@ class Deformer {
   RowMatrixX3d V_;
   RowMatrixX3i F_;
   OutsidePolicy policy_;
+  Ties ties_;
+  RowMatrixX3d seam_shift_;  ///< processing order: what "shift" seams add to wrapped vertices (or empty)
   BasisTables tables_;
   std::vector<std::int32_t> order_;  ///< processing position -> vertex
   std::vector<std::int32_t> rank_;   ///< vertex -> processing position
@@ -330,6 +352,7 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
   const Index N = n_control_points();
   check_control_points(P, "deform");
   FramePlan plan;
+  if (!ties_.identity) plan.ties = &ties_;
   plan.correcting = opt.preserve_volume || !opt.constraints.empty();
   if (plan.correcting) VPFFD_CHECK(!opt.axes.empty(), "deform: axes is empty; name at least one of x, y, z");
   VPFFD_CHECK(opt.rounds >= 1 && opt.rounds <= kMaxRounds, "deform: rounds is ", opt.rounds, "; expected 1..",
@@ -379,6 +402,13 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
     }
   }
   plan.sources = embed(lattice_, pts, policy_, 1, "constraint point");
+  // The rows give the wrapped point's image; a "shift" seam would add a translation the
+  // right-hand sides do not carry.
+  if (seam_translations(lattice_, pts).rows() > 0)
+    for (size_t s = 0; s < nc; ++s)
+      VPFFD_CHECK(seam_translations(lattice_, pts.row(s)).rows() == 0, "deform: constraint ", s,
+                  " has its source outside the box along a periodic axis with the 'shift' seam; give the source "
+                  "inside the box (moved by whole extents) and its target moved by the same amount");
   const int per = tables_.order[0] * tables_.order[1] * tables_.order[2];
   for (size_t s = 0; s < nc; ++s) {
     plan.rows[s].index.resize(per);
@@ -394,7 +424,7 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
   for (size_t s = 0; s < nc; ++s)
     for (int a = 0; a < 3; ++a)
       if (!corrected[a]) {
-        const double S = row_dot(plan.rows[s], P.col(a));
+        const double S = row_dot(plan.rows[s], expand_column(ties_, P.col(a), a));
         VPFFD_CHECK(std::abs(S - opt.constraints[s].target[a]) <= 1e-9 * diag, "deform: constraint ", s,
                     " moves its point along ", axis_name[a], " (from ", S, " to ", opt.constraints[s].target[a],
                     "), but ", axis_name[a], " is not among the corrected axes");
@@ -432,10 +462,11 @@ inline void constraint_steps(const FramePlan& plan, const Eigen::Ref<const RowMa
     const int a = opt.axes[step % naxes];
     AxisStep info;
     info.axis = a;
-    const VectorXd Pa = P.col(a) + res.offsets.col(a);
+    const VectorXd Pa = plan.ties ? expand_column(*plan.ties, P.col(a) + res.offsets.col(a), a)
+                                  : VectorXd(P.col(a) + res.offsets.col(a));
     const std::vector<double> rhs = constraint_rhs(plan.rows, opt.constraints, a, Pa);
     const VectorXd delta =
-        solve_axis_offsets(nullptr, 0.0, plan.rows, rhs, plan.inv_weight, axis_name[a], &info.sum_squares);
+        solve_tied(plan.ties, nullptr, 0.0, plan.rows, rhs, plan.inv_weight, axis_name[a], &info.sum_squares);
     info.max_offset = delta.cwiseAbs().maxCoeff();
     res.offsets.col(a) += delta;
     res.steps.push_back(info);
@@ -484,7 +515,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     lap(tm.volume);
     constraint_steps(pl, P, opt, res);
     lap(tm.solves);
-    for (int a : opt.axes) gather(VectorXd(res.offsets.col(a)), X, a, threads);
+    for (int a : opt.axes) gather(expand_offsets(ties_, res.offsets.col(a)), X, a, threads);
     lap(tm.gathers);
     if (pl.measure) res.volume = signed_volume(X, Fs_, origin_, threads);
     lap(tm.volume);
@@ -506,20 +537,21 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       if (step == 0) res.volume_before = co.volume;
       // Equal shares of what is still missing: after the last axis the volume is the target.
       info.share = (pl.target - co.volume) / (k - step);
-      const VectorXd Pa = P.col(a) + res.offsets.col(a);
+      const VectorXd Pa = expand_column(ties_, P.col(a) + res.offsets.col(a), a);
       const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, Pa);
       const VectorXd delta =
-          solve_axis_offsets(&co.alpha, info.share, rows, rhs, pl.inv_weight, axis_name[a], &info.sum_squares);
+          solve_tied(pl.ties, &co.alpha, info.share, rows, rhs, pl.inv_weight, axis_name[a], &info.sum_squares);
+      const VectorXd delta_ext = expand_offsets(ties_, delta);
       info.max_offset = delta.cwiseAbs().maxCoeff();
       res.offsets.col(a) += delta;
       res.steps.push_back(info);
       lap(tm.solves);
       if (last && fused) {
         res.vertices.resize(n_vertices(), 3);
-        res.volume = gather_final(delta, X, a, w.data(), res.vertices.data(), threads);
+        res.volume = gather_final(delta_ext, X, a, w.data(), res.vertices.data(), threads);
         have_vertices = true;
       } else {
-        gather(delta, X, a, threads);
+        gather(delta_ext, X, a, threads);
       }
       lap(tm.gathers);
     }
@@ -529,7 +561,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   res.control_points = P + res.offsets;
   if (!have_vertices) res.vertices = to_caller_order(Xs, threads);
   lap(tm.reorder);
-  res.constraint_error = constraint_error(rows, res.control_points, opt.constraints);
+  res.constraint_error = constraint_error(rows, expand_points(ties_, res.control_points), opt.constraints);
   if (timed) {
     tm.recorded = true;
     tm.total = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();

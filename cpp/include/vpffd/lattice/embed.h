@@ -15,6 +15,7 @@
 #include "vpffd/core/check.h"
 #include "vpffd/core/parallel.h"
 #include "vpffd/lattice/lattice.h"
+#include "vpffd/lattice/periodic.h"
 
 namespace vpffd {
 
@@ -71,11 +72,13 @@ inline Embedding embed(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X
   // Rounding in the box computation must not throw out points on its faces.
   Vector3d tol;
   for (int a = 0; a < 3; ++a) tol[a] = 1e-12 * (L.box_max[a] - L.box_min[a]);
+  const bool periodic = L.any_periodic();
   const int chunks = chunk_count(n);
   std::vector<Index> first_bad(chunks, -1), n_bad(chunks, 0), first_nan(chunks, -1);
   parallel_chunks(n, chunks, threads, [&](int c, Index b, Index e) {
     for (Index v = b; v < e; ++v) {
-      const Vector3d x = X.row(v).transpose();
+      // Periodic axes have no outside: the point is wrapped into the box.
+      const Vector3d x = periodic ? wrap_point(L, X.row(v).transpose()) : Vector3d(X.row(v).transpose());
       if (!x.allFinite()) {
         if (first_nan[c] < 0) first_nan[c] = v;
         continue;

@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "vpffd/bspline/basis.h"
@@ -18,11 +19,30 @@
 
 namespace vpffd {
 
+/// How a periodic axis ties its last `degree` control slices to its first ones
+/// (lattice/periodic.h). None: the axis is not periodic.
+enum class Seam : std::uint8_t {
+  None,
+  Shift,   ///< P_ext[n+m] = P[m] + extent * e_a: the rest lattice is the identity and tiles space
+  Closed,  ///< P_ext[n+m] = P[m]: the control net closes on itself (a ring)
+  Twist,   ///< P_ext[n+m, j, k] = P[m, nv-1-j, nw-1-k] (the other two axes mirrored): a Moebius band
+};
+
 struct Lattice {
   std::array<int, 3> degree{3, 3, 3};
   std::array<std::vector<double>, 3> knots;  ///< per axis, n_a + degree_a + 1 knots
   Vector3d box_min = Vector3d::Zero();       ///< world point mapped to (t_d, t_d, t_d)
   Vector3d box_max = Vector3d::Ones();       ///< world point mapped to (t_n, t_n, t_n)
+  /// Per axis: Seam::None, or how a periodic axis closes. A periodic axis of n distinct
+  /// control points is stored as an ordinary axis of n + degree points on uniform
+  /// unclamped knots whose domain [t_d, t_{n+d}] spans the box (lattice/periodic.h).
+  std::array<Seam, 3> seam{Seam::None, Seam::None, Seam::None};
+
+  bool periodic(int a) const { return seam[a] != Seam::None; }
+  bool any_periodic() const { return periodic(0) || periodic(1) || periodic(2); }
+  /// Control points along axis a that the user sets: dim(a), less the tied slices.
+  int distinct_dim(int a) const { return periodic(a) ? dim(a) - degree[a] : dim(a); }
+  Index n_distinct_points() const { return Index(distinct_dim(0)) * distinct_dim(1) * distinct_dim(2); }
 
   int dim(int a) const { return static_cast<int>(knots[a].size()) - degree[a] - 1; }
   std::array<int, 3> dims() const { return {dim(0), dim(1), dim(2)}; }
@@ -32,6 +52,29 @@ struct Lattice {
   double domain_lo(int a) const { return knots[a][degree[a]]; }
   double domain_hi(int a) const { return knots[a][dim(a)]; }
 };
+
+/// Periodic axes: uniform knots, at least degree + 1 distinct control points, and a
+/// twisted seam only with the two other axes open (the mirror of their indices
+/// would otherwise not be a map of the lattice onto itself).
+inline void validate_periodic(const Lattice& L) {
+  static const char axes[3] = {'x', 'y', 'z'};
+  for (int a = 0; a < 3; ++a) {
+    if (!L.periodic(a)) continue;
+    const int d = L.degree[a], n = L.distinct_dim(a);
+    VPFFD_CHECK(n >= d + 1, "lattice: periodic axis ", axes[a], " has ", n, " distinct control points; degree ", d,
+                " needs at least degree + 1 = ", d + 1, " (fewer would tie a control point to itself)");
+    const std::vector<double>& t = L.knots[a];
+    const double h = (t.back() - t.front()) / double(t.size() - 1);
+    for (size_t i = 1; i < t.size(); ++i)
+      VPFFD_CHECK(std::abs(t[i] - t[i - 1] - h) <= 1e-12 * std::abs(t.back() - t.front()), "lattice: periodic axis ",
+                  axes[a], " needs uniform knots (knot ", i, " breaks the spacing)");
+  }
+  for (int a = 0; a < 3; ++a)
+    if (L.seam[a] == Seam::Twist)
+      for (int b = 0; b < 3; ++b)
+        VPFFD_CHECK(b == a || !L.periodic(b), "lattice: the twisted (Moebius) seam along ", axes[a],
+                    " mirrors the other two axes, so ", axes[b], " cannot be periodic too");
+}
 
 /// @throws InvalidInputError for a degree outside [1, 5], too few control points
 /// for the degree, bad knots, or a box with a non-finite or non-positive extent.
@@ -51,6 +94,7 @@ inline void validate_lattice(const Lattice& L) {
     VPFFD_CHECK(std::isfinite(ext) && std::isfinite(scale) && scale > 0 && std::isnormal(ext), "lattice: extent ",
                 ext, " along ", axes[a], " is out of the range double precision can map");
   }
+  validate_periodic(L);
   VPFFD_CHECK(L.n_control_points() < (Index(1) << 31), "lattice: too many control points (",
               L.n_control_points(), ")");
 }
