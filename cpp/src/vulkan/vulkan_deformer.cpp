@@ -6,8 +6,9 @@
 //   the per-span power-form basis table, the tiles (runs of <= 64 vertices of one
 //   cell) and, per control point, the list of tile partials that touch it.
 // A frame runs: upload copies -> FFD -> [volume] -> per axis step [coefficients ->
-// combine -> solve (offsets included) -> vertex update] -> volume -> copies of the
-// offsets, the step results and the volume partials to the host. Lengths on the
+// combine -> solve (offsets included) -> vertex update] -> volume -> [normals of the
+// corrected control points, when asked] -> copies of the offsets, the step results,
+// the volume partials [and the normals] to the host. Lengths on the
 // device are in units of `scale`, the power of two nearest to the lattice's half
 // diagonal: float-float has float32's exponent range (volume coefficients squared
 // of a 1e-9 m mesh would underflow it, those of a 1e10 mm one overflow it), and a
@@ -184,6 +185,8 @@ struct VulkanDeformer::Impl {
   static_assert(kNumBuf == int(kBindings), "one binding per device buffer");
   Buffer buf[kNumBuf];
   Buffer up_P, up_invw, up_frame, up_delta, up_cons_i, up_cons_d, rb_delta, rb_stats, rb_red, rb_X, rb_N;
+  Buffer up_n0;  // staging of the rest normals, released after their upload
+  bool normals_ready = false;  // the rest normals are on the device (a submission ran)
   // The vertices before the frame now running: a frame whose failure is only known
   // after it ran (see deform) puts them back, so a failed frame never becomes visible.
   Buffer x_good;
@@ -407,6 +410,23 @@ struct VulkanDeformer::Impl {
     submit_and_wait();
   }
 
+  // The first frame with normals: their buffers, and the rest normals uploaded (into
+  // `cmd`, begun) as deformed_normals uses them (vertex_normals of the rest mesh), in
+  // the device order. Returns whether `cmd` got work.
+  bool prepare_normals() {
+    if (normals_ready) return false;
+    reserve(bNrm0, &up_n0, 12 * nv, "rest normals");
+    reserve(bNrm, nullptr, 12 * nv, "normals");
+    const RowMatrixX3d n0 = vertex_normals(cpu->rest_vertices(), cpu->faces());
+    const std::vector<std::int32_t>& order = cpu->processing_order();
+    float* p = static_cast<float*>(up_n0.mapped());
+    for (Index i = 0; i < nv; ++i)
+      for (int a = 0; a < 3; ++a) p[3 * i + a] = static_cast<float>(n0(order[i], a));
+    copy(up_n0, buf[bNrm0], 12 * nv);
+    if (!rb_N.handle()) rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "normals (read-back)");
+    return true;
+  }
+
   // Uploads the constraint block (into `cmd`, begun) when the rows or the weights changed.
   bool update_constraints(const std::vector<SparseVec>& rows, const VectorXd& inv_weight);
   const Recorded& frame_commands(const Shape& shape);
@@ -535,14 +555,6 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   }
   std::vector<double> nrm_tab_dev(nrm_tab.size());  // 8 bytes per real in either precision
   put_reals(nrm_tab_dev.data(), nrm_tab.data(), nrm_tab.size(), ff);
-  // Rest normals for normals.comp, as deformed_normals uses them (vertex_normals of the
-  // rest mesh), in the device order.
-  std::vector<float> N0(3 * nv);
-  {
-    const RowMatrixX3d n0 = vertex_normals(V, c.faces());
-    for (Index i = 0; i < nv; ++i)
-      for (int a = 0; a < 3; ++a) N0[3 * i + a] = static_cast<float>(n0(order[i], a));
-  }
 
   // Tiles and, per control point, the partials (tile * K^3 + local) that touch it.
   std::vector<std::int32_t> tiles;
@@ -600,8 +612,10 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   mk(bDelta, 32 * N, "offsets");
   mk(bStats, 8 * ST_SIZE, "frame results");
   mk(bRed, 16 * kMaxGroups, "volume partials");
-  mk(bNrm0, 12 * nv, "rest normals");
-  mk(bNrm, 12 * nv, "normals");
+  // Placeholders until a frame asks for normals (prepare_normals): 36 bytes per vertex
+  // that a caller who never asks does not pay.
+  mk(bNrm0, 16, "rest normals");
+  mk(bNrm, 16, "normals");
   mk(bNrmTab, 8 * nrm_tab.size(), "normals basis table");
   reserve(bFrame, &up_frame, 8 * FR_RHS, "frame parameters");
   reserve(bConsI, &up_cons_i, 4 * (CI_BASE + N + 1), "constraints");
@@ -613,7 +627,6 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   rb_delta = B(*dev, 24 * N, B::Readback, "offsets (read-back)");
   rb_stats = B(*dev, 8 * ST_SIZE, B::Readback, "frame results (read-back)");
   rb_red = B(*dev, 16 * kMaxGroups, B::Readback, "volume partials (read-back)");
-  rb_N = B(*dev, 12 * nv, B::Readback, "normals (read-back)");
 
   VkCommandPoolCreateInfo cpi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
   cpi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
@@ -649,7 +662,6 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   put(bSpan, span.data(), 4 * span.size());
   put(bTau, tau.data(), 4 * tau.size());
   put(bPoly, poly.data(), 4 * poly.size());
-  put(bNrm0, N0.data(), 4 * N0.size());
   put(bNrmTab, nrm_tab_dev.data(), 8 * nrm_tab_dev.size());
   put(bTiles, tiles.data(), 4 * tiles.size());
   put(bCombPtr, comb_ptr.data(), 4 * comb_ptr.size());
@@ -940,6 +952,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
                                               ": the volume and point constraints are linearly dependent"));
     }
   }
+  if (normals && m.prepare_normals()) aux = true;  // before frame_commands: it may rebind
   const bool new_invw = m.invw_uploaded.size() != N || m.invw_uploaded != inv_weight;
   if (new_invw && shape.mode == Shape::DeviceSteps) {
     put_reals(m.up_invw.mapped(), inv_weight.data(), N, m.ff);
@@ -982,6 +995,10 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   if (read_vertices) cbs[n_cbs++] = m.readback();
   m.submit_and_wait(cbs, n_cbs);
   if (new_invw && shape.mode == Shape::DeviceSteps) m.invw_uploaded = inv_weight;
+  if (normals && !m.normals_ready) {
+    m.normals_ready = true;
+    m.up_n0 = Impl::Buffer();
+  }
 
   FrameTimings tm;
   const std::uint32_t ns = rec.n_steps;
