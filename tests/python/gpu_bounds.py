@@ -180,19 +180,22 @@ def _axis_errors(knots, degree, u, du_dx):
     eps = 1e-9 * (t[n] - t[d])
     for shift in (-eps, 0.0, eps):
         span = np.clip(np.searchsorted(t, u + shift, side="right") - 1, d, n - 1)
-        for i, s in enumerate(span):
+        for s in np.unique(span):
+            i = np.nonzero(span == s)[0]
             C = forms[int(s)]
             h = t[s + 1] - t[s]
-            tau = float(np.clip((u[i] - t[s]) / h, 0.0, 1.0))
+            tau = np.clip((u[i] - t[s]) / h, 0.0, 1.0)[:, None]
             g = du_dx / h
-            # The k-th derivatives of the K functions at tau, and the magnitude sums Mk.
+            # The k-th derivatives of the K functions at tau (rows: points), and the
+            # magnitude sums Mk.
             der = [sum(perm(qq, k) * C[qq] * tau ** (qq - k) for qq in range(k, K)) for k in range(3)]
-            mag = [sum(perm(qq, k) * np.abs(C[qq]).sum() * tau ** (qq - k) for qq in range(k, K))
+            mag = [sum(perm(qq, k) * np.abs(C[qq]).sum() * tau[:, 0] ** (qq - k) for qq in range(k, K))
                    for k in range(4)]
-            A0, A1, A2 = (float(np.abs(x).sum()) for x in der)
-            eB[i] = max(eB[i], U32 * (A0 + tau * (A1 + U32 * mag[2])) + (2 * d + 3) * U_SUM * mag[0])
-            eD[i] = max(eD[i], g * (U32 * (A1 + tau * (A2 + U32 * mag[3])) + (4 * d + 5) * U_SUM * mag[1]))
-            S[i] = max(S[i], g * A1)
+            A0, A1, A2 = (np.abs(x).sum(axis=1) if np.ndim(x) == 2 else np.zeros(len(i)) for x in der)
+            tau = tau[:, 0]
+            eB[i] = np.maximum(eB[i], U32 * (A0 + tau * (A1 + U32 * mag[2])) + (2 * d + 3) * U_SUM * mag[0])
+            eD[i] = np.maximum(eD[i], g * (U32 * (A1 + tau * (A2 + U32 * mag[3])) + (4 * d + 5) * U_SUM * mag[1]))
+            S[i] = np.maximum(S[i], g * A1)
             if shift == 0.0:
                 first[i] = s - d
     return eB, eD, S, first

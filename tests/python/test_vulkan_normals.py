@@ -111,3 +111,13 @@ def test_normals_only_when_asked_and_frames_reused(setup, precision):
         gpu.deform(P, normals="yes")
     with pytest.raises(TypeError, match="normals: expected a bool"):
         cpu.deform(P, normals=1)
+
+
+def test_armadillo_twist(shared_meshes, precision):
+    # The spec's real-mesh case (43,243 vertices, a 60 degree twist about its up axis).
+    mesh = vpffd.load_mesh(shared_meshes / "armadillo.ply")
+    lat = vpffd.Lattice.around(mesh, shape=(8, 8, 8), degree=3)
+    cpu = vpffd.Deformer(mesh, lat, backend="serial")
+    gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=SEL, gpu_precision=precision)
+    P = twist(lat.rest_points, 60.0, axis="y")
+    check_normals(gpu.deform(P, normals=True), cpu, mesh, lat)
