@@ -7,7 +7,10 @@ CPU and GPU, and the factor CPU/GPU for the xyz frame. GPU stage times come from
 Vulkan timestamp queries inside the frame's single submission; "GPU xyz e2e" is
 the whole Deformer.deform call as a caller sees it (upload, submit, wait, read
 back of offsets and vertices), "GPU xyz kept" the same with the vertices left on
-the device (a renderer's case). CPU times are the OpenMP backend.
+the device (a renderer's case). "GPU xyz+N" is the xyz frame with the deformed
+normals computed in the same submission (deform(normals=True)), "CPU N" the CPU's
+deformed_normals of the same control points alone, "N angle deg" the largest angle
+between the two. CPU times are the OpenMP backend.
 
     python bench/python/bench_gpu.py                  # all meshes, 10^3 cubic lattice
     python bench/python/bench_gpu.py --max-vertices 50000 --repeats 3
@@ -50,6 +53,7 @@ import numpy as np
 import vpffd
 
 from vpffd.cli.benchmark import SHARED_MESHES, frame_edit as edit, median_ms
+from vpffd.normals import angles_deg, deformed_normals
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -122,6 +126,16 @@ def bench_mesh(name, mesh, args):
         t0 = time.perf_counter()
         gpu._vk.deform(Pflat, read_vertices=False)
         kept.append((time.perf_counter() - t0) * 1e3)
+    # Normals in the same submission (normals.comp): the extra cost over the xyz frame,
+    # and the CPU's deformed_normals of the same control points for comparison.
+    gn, gn_e2e = [], []
+    for _ in range(r):
+        t0 = time.perf_counter()
+        resn = gpu.deform(P, normals=True)
+        gn_e2e.append((time.perf_counter() - t0) * 1e3)
+        gn.append(gpu.last_timings())
+    cpu_normals = median_ms(lambda: deformed_normals(cpu, resn.control_points), r)
+    ref_normals = deformed_normals(cpu, resn.control_points)
     ref = cpu.deform(P)
     diag = float(np.linalg.norm(lat.box_max - lat.box_min))
     med = statistics.median
@@ -136,6 +150,10 @@ def bench_mesh(name, mesh, args):
         gpu_xyz_ms=med(t["gpu_total_ms"] for t in gxyz),
         gpu_xyz_e2e_ms=med(e2e),
         gpu_xyz_kept_ms=med(kept),
+        gpu_xyz_normals_ms=med(t["gpu_total_ms"] for t in gn),
+        gpu_xyz_normals_e2e_ms=med(gn_e2e),
+        cpu_normals_ms=cpu_normals,
+        normals_max_angle_deg=float(np.nanmax(angles_deg(resn.normals, ref_normals))),
         volume_error_gpu=res.volume_error,
         volume_error_cpu=ref.volume_error,
         max_vertex_dev_rel=float(np.abs(res.vertices - ref.vertices).max() / diag),
@@ -210,7 +228,8 @@ COLUMNS = [("model", "model", "{}"), ("vertices", "vertices", "{}"), ("gpu_ffd_m
            ("cpu_xyz_ms", "CPU xyz", "{:.2f}"), ("gpu_xyz_ms", "GPU xyz", "{:.2f}"),
            ("gpu_xyz_e2e_ms", "GPU xyz e2e", "{:.2f}"), ("gpu_xyz_kept_ms", "GPU xyz kept", "{:.2f}"),
            ("factor", "factor", "{:.2f}"), ("volume_error_gpu", "vol err GPU", "{:.1e}"),
-           ("max_vertex_dev_rel", "dev/diag", "{:.1e}")]
+           ("max_vertex_dev_rel", "dev/diag", "{:.1e}"), ("gpu_xyz_normals_ms", "GPU xyz+N", "{:.2f}"),
+           ("cpu_normals_ms", "CPU N", "{:.2f}"), ("normals_max_angle_deg", "N angle deg", "{:.1e}")]
 
 
 def print_table(rows, device, precision):

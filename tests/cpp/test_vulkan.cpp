@@ -134,6 +134,55 @@ void expect_offsets_explain_vertices(const Deformer& cpu, const DeformResult& g,
   EXPECT_LE((cpu.ffd(g.control_points) - g.vertices).cwiseAbs().maxCoeff(), b.vertex);
 }
 
+// Normals on the device (normals.comp) under an affine map x -> A x, which the FFD of
+// the mapped rest control points reproduces exactly (J = A everywhere): the exact
+// normal is cof(A) n0. The bound is the Python tests' (gpu_bounds.normal_angle_bound)
+// with the per-vertex basis sums replaced by their worst cases for clamped uniform
+// knots of degree d, in tau units: sum |B| = 1, sum |B'| <= 2d, sum |B''| <= 4d(d-1)
+// (the derivative formula applied once and twice), the real arithmetic's terms
+// (< 1e-9) added whole: per column of J an error of at most
+//   1.01 [R (eD + 2 S eB) + (3K + 3) u R S + 2 u R S],
+//   eB = u (1 + 2d) + 1e-9, eD = g (u (2d + 4d(d-1)) + 1e-9), S = 2d g,
+// (R = max |q - o|, g = 1 / span width), and an angle of at most
+// asin(|dn| / |cof(A) n0|) with |dn| <= sum_a |n0_a| (2 e |A| + e^2 + 7 u (|A| + e)^2).
+TEST_P(VulkanP, NormalsOfAnAffineMap) {
+  Scene s = sphere(3, 3, {5, 5, 5});
+  auto gpu = make(s.V, s.F, s.L);
+  Eigen::Matrix3d A;
+  A << 1.1, 0.2, 0.0, 0.0, 0.9, 0.1, 0.1, 0.0, 1.2;
+  const RowMatrixX3d P = rest_control_points(s.L) * A.transpose();
+  CorrectionOptions plain;
+  plain.preserve_volume = false;
+  RowMatrixX3d N;
+  const DeformResult r = gpu->deform(P, plain, true, &N);
+  ASSERT_EQ(N.rows(), s.V.rows());
+  // The normals change nothing else: the same frame without them gives the same result.
+  const DeformResult r2 = gpu->deform(P, plain);
+  EXPECT_TRUE(r.vertices == r2.vertices);
+
+  const double u = std::ldexp(1.0, -24);
+  const int d = 3;
+  const double h = (s.L.box_max[0] - s.L.box_min[0]) / (5 - d), g = 1 / h;
+  const Vector3d o = 0.5 * (s.L.box_min + s.L.box_max);
+  const double R = (P.rowwise() - o.transpose()).rowwise().norm().maxCoeff();
+  const double eB = u * (1 + 2 * d) + 1e-9, eD = g * (u * (2 * d + 4 * d * (d - 1)) + 1e-9), S = 2 * d * g;
+  const double e = 1.01 * (R * (eD + 2 * S * eB) + (3 * (d + 1) + 3) * u * R * S + 2 * u * R * S);
+  const double nA = A.colwise().norm().maxCoeff();
+  const Eigen::Matrix3d cof = A.determinant() * A.inverse().transpose();
+  const RowMatrixX3d n0 = vertex_normals(s.V, s.F);
+  double worst = 0;
+  for (Index v = 0; v < s.V.rows(); ++v) {
+    const Vector3d want = cof * n0.row(v).transpose(), got = N.row(v).transpose();
+    const double dn = n0.row(v).cwiseAbs().sum() * (2 * e * nA + e * e + 7 * u * (nA + e) * (nA + e));
+    const double bound = std::asin(std::min(1.0, dn / want.norm())) + 2 * u;
+    const double angle = std::atan2(got.cross(want).norm(), got.dot(want));
+    EXPECT_LE(angle, bound) << "vertex " << v;
+    EXPECT_NEAR(got.norm(), 1.0, 1e-6);
+    worst = std::max(worst, bound);
+  }
+  EXPECT_LT(worst, 0.01 / 180 * std::acos(-1.0));  // the bound proves the 0.01 degree
+}
+
 TEST(Vulkan, DevicesListed) {
   std::string why;
   const auto ds = vulkan::devices(&why);

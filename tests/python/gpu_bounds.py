@@ -29,6 +29,8 @@ linear in each coordinate (V = sum_v g_v y_v, g the cone-volume gradient), so
 with E the bound above for one gather. An uncorrected volume carries every vertex's
 error: |dV| <= sum_v sum_a |g_v,a| E_v,a with E for the whole frame.
 """
+from math import perm
+
 import numpy as np
 
 U32 = 2.0 ** -24
@@ -111,3 +113,135 @@ def check_frame(g, c, mesh, lat, P=None, cpu=None):
     elif np.isfinite(c.volume):
         assert abs(g.volume - c.volume) <= b.plain_volume, (g.volume, c.volume, b.plain_volume)
     return b
+
+
+# --- normals (shaders/normals.comp) ----------------------------------------------------
+#
+# The device forms N = normalize(cof(J~) n0~) in float32, J~ the Jacobian of the frame's
+# control points q (P - o and the offsets, each rounded to float32, then added: at most
+# 2 u (|q - o| + |delta|) per point). The basis values B_r and derivatives
+# B'_r = dB_r/dtau * dtau/dx of each axis are evaluated in reals (float64 or float-float,
+# relative rounding at most U_SUM per operation) from real power-form coefficients at the
+# device's float32 local parameter (|tau_f - tau| <= u tau), then rounded to float32. With
+# the span's power form c_qr and, at the vertex, A0 = sum_r |B_r|, A1 = sum_r |dB_r/dtau|,
+# A2 = sum_r |d2B_r/dtau2| and the magnitudes Mk = sum_r sum_q q!/(q-k)! |c_qr| tau^(q-k):
+#   the K values err in all by at most    eB = u (A0 + tau (A1 + u M2)) + (2d + 3) U_SUM M0
+#   the K derivatives by at most          eD = g [u (A1 + tau (A2 + u M3)) + (4d + 5) U_SUM M1]
+# (g = dtau/dx of the span: the rounding to float32, the parameter's rounding through the
+# next derivative, and the real Horner passes with their 2d (values) and 4d (derivatives)
+# operations, the coefficients' and the scale's rounding). Column a of J is
+# sum_c q_c dB_c/dx_a as nested float32 sums over the three axes (K_u + K_v + K_w terms,
+# one product each); with R_v = max |q_c - o| over the vertex's K^3 control points and
+# S_a = g A1 (the other axes' values sum to 1):
+#   |E_a| <= R_v (eD_a + S_a (eB_b + eB_c)) + (K_u + K_v + K_w + 3) u R_v S_a
+#            + 2 u (R_v + max |delta|) S_a,
+# times 1.01 for the second-order terms (products of the errors above, < 1e-5 relative).
+# Then cof(J + E) n0 - cof(J) n0 = sum_a n0_a (e_b x c_c + c_b x e_c + e_b x e_c)
+# (a, b, c cyclic, c_a the CPU's columns), so
+#   |dn| <= sum_a |n0_a| (e_b |c_c| + |c_b| e_c + e_b e_c + 7 u |c~_b| |c~_c|)
+# (7 u: the rounded rest normal, two roundings per cross product component, the product
+# with n0 and the two additions; c~ = |c| + e), and the angle between the device's and
+# the CPU's normal is at most asin(|dn| / |cof(J) n0|), plus 2 u for the normalisation
+# and 2^-40 for the CPU's own double arithmetic (its J errs by a few 1e-16 relative).
+# Evaluated per vertex on the vertex's own span (both spans for a vertex on a knot).
+
+def _power_forms(knots, degree):
+    """{span: C} with C[q, r] the power-form coefficient of tau^q of function r on each
+    non-empty span, reconstructed by interpolating the double basis at d + 1 points."""
+    from vpffd import _core
+    t = np.asarray(knots, float)
+    d, K = degree, degree + 1
+    n = len(t) - d - 1
+    tau = np.linspace(0.0, 1.0, K)
+    V = np.vander(tau, K, increasing=True)  # V[p, q] = tau_p^q
+    out = {}
+    for s in range(d, n):
+        h = t[s + 1] - t[s]
+        if h <= 0:
+            continue
+        # Nudged inside the span so that tau = 1 is evaluated on this span's piece.
+        u = t[s] + np.minimum(tau, 1.0 - 1e-15) * h
+        B = np.asarray(_core.basis_functions(list(t), d, list(u)))[:, s - d:s + 1]
+        out[s] = np.linalg.solve(V, B)
+    return out
+
+
+def _axis_errors(knots, degree, u, du_dx):
+    """Per point (parameter u): (eB, eD, S, first control point) of one axis, the
+    worst over the spans the point may lie in."""
+    t = np.asarray(knots, float)
+    d, K = degree, degree + 1
+    n = len(t) - d - 1
+    forms = _power_forms(t, d)
+    eB = np.zeros(len(u))
+    eD = np.zeros(len(u))
+    S = np.zeros(len(u))
+    first = np.zeros(len(u), int)
+    eps = 1e-9 * (t[n] - t[d])
+    for shift in (-eps, 0.0, eps):
+        span = np.clip(np.searchsorted(t, u + shift, side="right") - 1, d, n - 1)
+        for s in np.unique(span):
+            i = np.nonzero(span == s)[0]
+            C = forms[int(s)]
+            h = t[s + 1] - t[s]
+            tau = np.clip((u[i] - t[s]) / h, 0.0, 1.0)[:, None]
+            g = du_dx / h
+            # The k-th derivatives of the K functions at tau (rows: points), and the
+            # magnitude sums Mk.
+            der = [sum(perm(qq, k) * C[qq] * tau ** (qq - k) for qq in range(k, K)) for k in range(3)]
+            mag = [sum(perm(qq, k) * np.abs(C[qq]).sum() * tau[:, 0] ** (qq - k) for qq in range(k, K))
+                   for k in range(4)]
+            A0, A1, A2 = (np.abs(x).sum(axis=1) if np.ndim(x) == 2 else np.zeros(len(i)) for x in der)
+            tau = tau[:, 0]
+            eB[i] = np.maximum(eB[i], U32 * (A0 + tau * (A1 + U32 * mag[2])) + (2 * d + 3) * U_SUM * mag[0])
+            eD[i] = np.maximum(eD[i], g * (U32 * (A1 + tau * (A2 + U32 * mag[3])) + (4 * d + 5) * U_SUM * mag[1]))
+            S[i] = np.maximum(S[i], g * A1)
+            if shift == 0.0:
+                first[i] = s - d
+    return eB, eD, S, first
+
+
+def normal_angle_bound(lat, rest_vertices, control_points, jacobians, rest_normals, offsets=None):
+    """(V,) bound in degrees on the angle between the device's normals and
+    deformed_normals_exact of the same control points (the derivation above).
+    ``offsets``: the frame's offsets (their rounding adds to the control points')."""
+    X = np.asarray(rest_vertices, float)
+    Q = np.asarray(control_points, float).reshape(*lat.shape, 3)
+    o = 0.5 * (lat.box_min + lat.box_max)
+    dmax = 0.0 if offsets is None else float(np.abs(np.asarray(offsets, float)).max(initial=0.0)) * np.sqrt(3)
+    Ks = [d + 1 for d in lat.degree]
+    n_v = len(X)
+    eB, eD, S, first = [], [], [], []
+    for a in range(3):
+        t = np.asarray(lat.knots[a], float)
+        d = lat.degree[a]
+        lo, hi = t[d], t[len(t) - d - 1]
+        du_dx = (hi - lo) / (lat.box_max[a] - lat.box_min[a])
+        r = _axis_errors(t, d, lo + (X[:, a] - lat.box_min[a]) * du_dx, du_dx)
+        for lst, x in zip((eB, eD, S, first), r):
+            lst.append(x)
+    # One more control point each side: a vertex on a knot may sit in either span.
+    R = np.zeros(n_v)
+    idx = [lambda f, i, a=a: np.clip(f + i, 0, lat.shape[a] - 1) for a in range(3)]
+    for i in range(-1, Ks[0] + 1):
+        for j in range(-1, Ks[1] + 1):
+            for k in range(-1, Ks[2] + 1):
+                q = Q[idx[0](first[0], i), idx[1](first[1], j), idx[2](first[2], k)]
+                R = np.maximum(R, np.linalg.norm(q - o, axis=1))
+    terms = sum(Ks) + 3
+    e = 1.01 * np.stack([R * (eD[a] + S[a] * (eB[(a + 1) % 3] + eB[(a + 2) % 3])) + terms * U32 * R * S[a]
+                         + 2 * U32 * (R + dmax) * S[a] for a in range(3)], axis=1)
+    J = np.asarray(jacobians, float).reshape(-1, 3, 3)
+    cols = np.linalg.norm(J, axis=1)  # |c_a| per vertex, (V, 3)
+    N0 = np.asarray(rest_normals, float)
+    n0 = np.abs(N0)
+    dn = np.zeros(n_v)
+    for a in range(3):
+        b, c = (a + 1) % 3, (a + 2) % 3
+        dn += n0[:, a] * (e[:, b] * cols[:, c] + cols[:, b] * e[:, c] + e[:, b] * e[:, c]
+                          + 7 * U32 * (cols[:, b] + e[:, b]) * (cols[:, c] + e[:, c]))
+    Jc = [J[:, :, a] for a in range(3)]
+    n = (N0[:, :1] * np.cross(Jc[1], Jc[2]) + N0[:, 1:2] * np.cross(Jc[2], Jc[0])
+         + N0[:, 2:] * np.cross(Jc[0], Jc[1]))
+    ratio = np.minimum(1.0, dn / np.linalg.norm(n, axis=1))
+    return np.degrees(np.arcsin(ratio) + 2 * U32 + 2.0 ** -40)

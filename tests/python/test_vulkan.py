@@ -449,7 +449,7 @@ VALIDATION_LAYER = Path("/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_vali
 def test_validation_layer_reports_nothing(tmp_path):
     # Lavapipe forgives missing barriers and misused handles that a real GPU would
     # not: run frames of every kind (device steps, host offsets, plain, open mesh,
-    # constraints, failures, both precisions) under the validation layer with
+    # constraints, failures, normals, both precisions) under the validation layer with
     # synchronization validation, which must report nothing.
     code = """
 import numpy as np, vpffd
@@ -461,7 +461,9 @@ for prec in ("float64", "float-float"):
     d = vpffd.Deformer(m, lat, backend="vulkan", device=%r, gpu_precision=prec)
     cons = [(7, m.vertices[7] + 0.02)]
     for kw in (dict(), dict(axes="zx", rounds=2), dict(constraints=cons, weights=np.linspace(1, 2, 150)),
-               dict(constraints=cons, preserve_volume=False), dict(preserve_volume=False)):
+               dict(constraints=cons, preserve_volume=False), dict(preserve_volume=False),
+               dict(normals=True), dict(constraints=cons, preserve_volume=False, normals=True),
+               dict(preserve_volume=False, normals=True)):
         d.deform(P, **kw)
     fixed = np.ones(lat.shape, bool); fixed[0, 0, 0] = False
     try:

@@ -99,21 +99,27 @@ void bind_vulkan(py::module_& m) {
              std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
              const PyConstraints& constraints,
              std::optional<double> target_volume, const std::string& method, int threads, bool allow_open,
-             int rounds, bool read_vertices) {
+             int rounds, bool read_vertices, bool normals) {
             const CorrectionOptions o = make_options(preserve_volume, axes, std::move(weights), std::move(fixed),
                                                      constraints, target_volume, method, threads, allow_open, rounds);
             DeformResult r;
+            RowMatrixX3d N;
             {
               py::gil_scoped_release release;
-              r = d.deform(P, o, read_vertices);
+              r = d.deform(P, o, read_vertices, normals ? &N : nullptr);
             }
-            return result_to_python(std::move(r));
+            py::dict out = result_to_python(std::move(r));
+            if (normals) out["normals"] = py::cast(std::move(N));
+            return out;
           },
           py::arg("control_points"), py::arg("preserve_volume") = true, py::arg("axes") = "xyz",
           py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
           py::arg("constraints") = PyConstraints{},
           py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0,
-          py::arg("allow_open") = false, py::arg("rounds") = 1, py::arg("read_vertices") = true);
+          py::arg("allow_open") = false, py::arg("rounds") = 1, py::arg("read_vertices") = true,
+          py::arg("normals") = false,
+          "One frame (see vpffd::vulkan::VulkanDeformer::deform). normals=True adds 'normals': the (V, 3) "
+          "unit normals of the deformed surface, computed on the device in the same submission.");
 }
 
 }  // namespace vpffd::bindings

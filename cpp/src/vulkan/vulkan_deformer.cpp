@@ -6,8 +6,9 @@
 //   the per-span power-form basis table, the tiles (runs of <= 64 vertices of one
 //   cell) and, per control point, the list of tile partials that touch it.
 // A frame runs: upload copies -> FFD -> [volume] -> per axis step [coefficients ->
-// combine -> solve (offsets included) -> vertex update] -> volume -> copies of the
-// offsets, the step results and the volume partials to the host. Lengths on the
+// combine -> solve (offsets included) -> vertex update] -> volume -> [normals of the
+// corrected control points, when asked] -> copies of the offsets, the step results,
+// the volume partials [and the normals] to the host. Lengths on the
 // device are in units of `scale`, the power of two nearest to the lattice's half
 // diagonal: float-float has float32's exponent range (volume coefficients squared
 // of a 1e-9 m mesh would underflow it, those of a 1e10 mm one overflow it), and a
@@ -34,6 +35,7 @@
 #include "context.h"
 #include "vpffd/backend/vulkan.h"
 #include "vpffd/ffd/basis_matrix.h"
+#include "vpffd/ffd/normals.h"
 
 namespace vpffd::vulkan {
 
@@ -76,8 +78,14 @@ const std::uint32_t kSpvGatherFF[] =
 const std::uint32_t kSpvVolumeFF[] =
 #include "vpffd/shaders/volume.ff.spv.inc"
     ;
+const std::uint32_t kSpvNormals64[] =
+#include "vpffd/shaders/normals.f64.spv.inc"
+    ;
+const std::uint32_t kSpvNormalsFF[] =
+#include "vpffd/shaders/normals.ff.spv.inc"
+    ;
 
-enum Pipe { kFfd, kCoef, kCombine, kSolve, kGather, kVolume, kPipes };
+enum Pipe { kFfd, kCoef, kCombine, kSolve, kGather, kVolume, kNormals, kPipes };
 struct Spv {
   const std::uint32_t* code;
   size_t bytes;
@@ -89,6 +97,7 @@ struct Spv {
         {kSpvCombine##S, sizeof(kSpvCombine##S), "combine"},                                      \
         {kSpvSolve##S, sizeof(kSpvSolve##S), "solve"}, {kSpvGather##S, sizeof(kSpvGather##S), "gather"}, \
         {kSpvVolume##S, sizeof(kSpvVolume##S), "volume"},                                         \
+        {kSpvNormals##S, sizeof(kSpvNormals##S), "normals"},                                      \
   }
 const Spv kShaders64[kPipes] = VPFFD_SHADERS(64);
 const Spv kShadersFF[kPipes] = VPFFD_SHADERS(FF);
@@ -145,9 +154,10 @@ struct Shape {
   Mode mode = Plain;
   bool measure = false;      // closed mesh or allow_open: volumes are measured
   bool open = false;         // cone weights in coef
+  bool normals = false;      // the deformed vertex normals, read back with the frame
   std::vector<int> axes;     // DeviceSteps: the axis of every step; HostOffsets: the axes to apply
   bool operator==(const Shape& o) const {
-    return mode == o.mode && measure == o.measure && open == o.open && axes == o.axes;
+    return mode == o.mode && measure == o.measure && open == o.open && normals == o.normals && axes == o.axes;
   }
 };
 
@@ -170,11 +180,13 @@ struct VulkanDeformer::Impl {
   // Order = binding numbers of shaders/common.glsl.
   enum Buf {
     bP, bX, bF, bAdjPtr, bAdj, bSpan, bTau, bPoly, bTiles, bPartial, bTileVol, bCombPtr, bComb, bAlpha, bInvW,
-    bDelta, bFrame, bConsI, bStats, bRed, bConsD, bWork, kNumBuf
+    bDelta, bFrame, bConsI, bStats, bRed, bConsD, bWork, bNrm0, bNrm, bNrmTab, kNumBuf
   };
   static_assert(kNumBuf == int(kBindings), "one binding per device buffer");
   Buffer buf[kNumBuf];
-  Buffer up_P, up_invw, up_frame, up_delta, up_cons_i, up_cons_d, rb_delta, rb_stats, rb_red, rb_X;
+  Buffer up_P, up_invw, up_frame, up_delta, up_cons_i, up_cons_d, rb_delta, rb_stats, rb_red, rb_X, rb_N;
+  Buffer up_n0;  // staging of the rest normals, released after their upload
+  bool normals_ready = false;  // the rest normals are on the device (a submission ran)
   // The vertices before the frame now running: a frame whose failure is only known
   // after it ran (see deform) puts them back, so a failed frame never becomes visible.
   Buffer x_good;
@@ -379,6 +391,16 @@ struct VulkanDeformer::Impl {
     return out;
   }
 
+  // rb_N, filled by a frame with normals, in the input order.
+  RowMatrixX3d unpack_normals() const {
+    const float* x = static_cast<const float*>(rb_N.mapped());
+    RowMatrixX3d out(nv, 3);
+    const std::vector<std::int32_t>& order = cpu->processing_order();
+    for (Index i = 0; i < nv; ++i)
+      for (int a = 0; a < 3; ++a) out(order[i], a) = double(x[3 * i + a]);
+    return out;
+  }
+
   // After a frame with device steps failed: its vertices back to those before it.
   void restore_vertices() {
     begin();
@@ -386,6 +408,23 @@ struct VulkanDeformer::Impl {
     copy(x_good, buf[bX], 12 * nv);
     barrier(cmd);
     submit_and_wait();
+  }
+
+  // The first frame with normals: their buffers, and the rest normals uploaded (into
+  // `cmd`, begun) as deformed_normals uses them (vertex_normals of the rest mesh), in
+  // the device order. Returns whether `cmd` got work.
+  bool prepare_normals() {
+    if (normals_ready) return false;
+    reserve(bNrm0, &up_n0, 12 * nv, "rest normals");
+    reserve(bNrm, nullptr, 12 * nv, "normals");
+    const RowMatrixX3d n0 = vertex_normals(cpu->rest_vertices(), cpu->faces());
+    const std::vector<std::int32_t>& order = cpu->processing_order();
+    float* p = static_cast<float*>(up_n0.mapped());
+    for (Index i = 0; i < nv; ++i)
+      for (int a = 0; a < 3; ++a) p[3 * i + a] = static_cast<float>(n0(order[i], a));
+    copy(up_n0, buf[bNrm0], 12 * nv);
+    if (!rb_N.handle()) rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "normals (read-back)");
+    return true;
   }
 
   // Uploads the constraint block (into `cmd`, begun) when the rows or the weights changed.
@@ -504,6 +543,18 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
     poly_off[a] = static_cast<std::int32_t>(poly.size());
     for (double x : T.poly[a].coef) poly.push_back(static_cast<float>(x));
   }
+  // normals.comp's table in reals: the power forms, then the derivative scales
+  // d tau / d y = (1 / span width) (du / dx) scale per axis and span (the shader finds
+  // them from the sizes).
+  std::vector<double> nrm_tab;
+  {
+    const Vector3d du_dx = parameter_scale(L);
+    for (int a = 0; a < 3; ++a) nrm_tab.insert(nrm_tab.end(), T.poly[a].coef.begin(), T.poly[a].coef.end());
+    for (int a = 0; a < 3; ++a)
+      for (double w : T.poly[a].inv_width) nrm_tab.push_back(w * du_dx[a] * scale);
+  }
+  std::vector<double> nrm_tab_dev(nrm_tab.size());  // 8 bytes per real in either precision
+  put_reals(nrm_tab_dev.data(), nrm_tab.data(), nrm_tab.size(), ff);
 
   // Tiles and, per control point, the partials (tile * K^3 + local) that touch it.
   std::vector<std::int32_t> tiles;
@@ -561,6 +612,11 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   mk(bDelta, 32 * N, "offsets");
   mk(bStats, 8 * ST_SIZE, "frame results");
   mk(bRed, 16 * kMaxGroups, "volume partials");
+  // Placeholders until a frame asks for normals (prepare_normals): 36 bytes per vertex
+  // that a caller who never asks does not pay.
+  mk(bNrm0, 16, "rest normals");
+  mk(bNrm, 16, "normals");
+  mk(bNrmTab, 8 * nrm_tab.size(), "normals basis table");
   reserve(bFrame, &up_frame, 8 * FR_RHS, "frame parameters");
   reserve(bConsI, &up_cons_i, 4 * (CI_BASE + N + 1), "constraints");
   reserve(bConsD, &up_cons_d, 8, "constraints");
@@ -606,6 +662,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   put(bSpan, span.data(), 4 * span.size());
   put(bTau, tau.data(), 4 * tau.size());
   put(bPoly, poly.data(), 4 * poly.size());
+  put(bNrmTab, nrm_tab_dev.data(), 8 * nrm_tab_dev.size());
   put(bTiles, tiles.data(), 4 * tiles.size());
   put(bCombPtr, comb_ptr.data(), 4 * comb_ptr.size());
   put(bComb, comb.data(), 4 * comb.size());
@@ -780,6 +837,14 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
     pc.slot = 1;
     dispatch(cb, kVolume, g_face, pc);
   }
+  if (shape.normals) {
+    // Of the corrected control points: P plus the offsets' three totals (rows 0-2 of
+    // delta: accumulated by the device steps, or uploaded with the host's offsets).
+    Push np;
+    np.flags = shape.mode == Shape::Plain ? 0 : 8;
+    dispatch(cb, kNormals, g_vert, np);
+    copy(cb, buf[bNrm], rb_N, 12 * nv);
+  }
   if (steps) copy(cb, buf[bDelta], rb_delta, 24 * N);
   if (steps) copy(cb, buf[bStats], rb_stats, 8 * ST_STEP_STRIDE * k);
   if (shape.measure) {
@@ -834,7 +899,7 @@ RowMatrixX3d VulkanDeformer::vertices() const {
 }
 
 DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
-                                    bool read_vertices) {
+                                    bool read_vertices, RowMatrixX3d* normals) {
   static const char axis_name[3] = {'x', 'y', 'z'};
   const auto t_start = std::chrono::steady_clock::now();
   Impl& m = *impl_;
@@ -861,6 +926,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   Shape shape;
   shape.measure = measure;
   shape.open = !cpu.is_closed();
+  shape.normals = normals != nullptr;
   DeformResult res;
   res.offsets = RowMatrixX3d::Zero(N, 3);
   if (opt.preserve_volume) {
@@ -890,6 +956,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
                                               ": the volume and point constraints are linearly dependent"));
     }
   }
+  if (normals && m.prepare_normals()) aux = true;  // before frame_commands: it may rebind
   const bool new_invw = m.invw_uploaded.size() != N || m.invw_uploaded != inv_weight;
   if (new_invw && shape.mode == Shape::DeviceSteps) {
     put_reals(m.up_invw.mapped(), inv_weight.data(), N, m.ff);
@@ -932,6 +999,10 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   if (read_vertices) cbs[n_cbs++] = m.readback();
   m.submit_and_wait(cbs, n_cbs);
   if (new_invw && shape.mode == Shape::DeviceSteps) m.invw_uploaded = inv_weight;
+  if (normals && !m.normals_ready) {
+    m.normals_ready = true;
+    m.up_n0 = Impl::Buffer();
+  }
 
   FrameTimings tm;
   const std::uint32_t ns = rec.n_steps;
@@ -1013,6 +1084,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   res.constraint_error = constraint_error(rows, res.control_points, opt.constraints);
   // Under the frame's lock: another thread's frame would overwrite rb_X.
   if (read_vertices) res.vertices = m.unpack_vertices();
+  if (normals) *normals = m.unpack_normals();
   tm.host_total = ms_since(t_start);
   m.timings = std::move(tm);
   return res;

@@ -129,9 +129,15 @@ class VulkanDeformer {
   /// an open mesh, as on the CPU, so both backends accept the same options). With read_vertices false the
   /// result's `vertices` is empty: call vertices() when they are needed. Errors are
   /// the CPU backend's (for dependent constraint rows it is asked for its message).
+  /// With `normals` (not null) *normals receives the #V x 3 unit normals of the
+  /// deformed surface at its vertices (input order), computed in the same submission: cof(J) n0
+  /// normalised, J the FFD's Jacobian of the corrected control points at the rest
+  /// vertex and n0 the rest mesh's vertex_normals, as deformed_normals_exact on the
+  /// CPU; float32 arithmetic (their angle to the CPU's: tests/python/gpu_bounds.py,
+  /// normal_angle_bound). Zero rows where cof(J) n0 vanishes.
   /// @throws as Deformer::deform; a device failure throws DeviceError
   DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
-                      bool read_vertices = true);
+                      bool read_vertices = true, RowMatrixX3d* normals = nullptr);
 
   /// #V x 3 vertices of the last frame that succeeded, in the input order (the rest
   /// mesh before any frame).

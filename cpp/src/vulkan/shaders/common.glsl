@@ -38,7 +38,7 @@ layout(push_constant) uniform Push {
   int axis;   // 0, 1, 2
   int step;   // index of the axis step in this frame
   int left;   // axis steps left including this one (the share divisor)
-  int flags;  // bit 2: cone weights (an open mesh); the other bits are unused
+  int flags;  // bit 2: cone weights (an open mesh); bit 8: normals of P + delta (rows 0-2)
   int slot;   // volume: region of `red` to write; gather: row of `delta` to add
   int count;  // unused (keeps the block's layout)
 } pc;
@@ -69,6 +69,11 @@ layout(std430, set = 0, binding = 19) buffer BufRed { real red[]; };  // per-wor
 layout(std430, set = 0, binding = 20) readonly buffer BufConsD { real cons_d[]; };
 // Scratch vectors of the solve workgroup; coherent: its invocations exchange them.
 layout(std430, set = 0, binding = 21) coherent buffer BufWork { real work[]; };
+// normals.comp: the rest vertex normals (3V, unit, uploaded once) and the deformed ones (3V).
+layout(std430, set = 0, binding = 22) readonly buffer BufNrm0 { float nrm0[]; };
+layout(std430, set = 0, binding = 23) writeonly buffer BufNrm { float nrm[]; };
+// normals.comp: `poly` in reals (same layout), then per axis and span d tau / d y.
+layout(std430, set = 0, binding = 24) readonly buffer BufNrmTab { real nrm_tab[]; };
 
 // Layouts, mirrored in vulkan_deformer.cpp.
 const int RED_STRIDE = 1024;       // = the most workgroups of a grid-stride pass

@@ -1,0 +1,96 @@
+#version 450
+// Exact deformed vertex normals (ffd/normals.h, deformed_normals_exact):
+// N = normalize(cof(J) n0), with J = dD/dx the FFD's Jacobian at the rest vertex and
+// n0 its rest normal. A tangent t maps to J t, so the tangent plane with normal
+// t1 x t2 maps to one with normal (J t1) x (J t2) = cof(J) (t1 x t2): no inverse, and
+// defined where J is singular (a zero vector there, as on the CPU).
+//
+// The control points are those of the finished frame: P plus, when pc.flags bit 8 is
+// set, the three accumulated offset rows of `delta` (a corrected frame). Runs last in
+// the frame's command buffer, after the final vertex update, so it costs no second
+// submission. The derivative of a span's power form, sum_q q c_q tau^(q-1), is
+// evaluated by the same Horner pass as the values, as the CPU's eval_span_derivs does,
+// then scaled by d tau / d y (`nrm_tab` after its copy of the basis table: per axis and
+// span, dtau/du * du/dy in device units). Only directions matter, but the axes' scales
+// must be right relative to each other.
+//
+// Why the basis is evaluated in reals here (the FFD's is float32): a float32 power form
+// errs by up to ~(2d + 1) sum_q |c_q| u, and for clamped cubic spans that bound alone
+// gives an angle bound of ~0.1 degree; evaluated in reals from real coefficients and
+// rounded once to float32, a basis value or derivative errs by u of itself (plus the
+// float32 parameter's rounding), which proves the issue's 0.01 degree
+// (tests/python/gpu_bounds.py, normal_angle_bound). 3 K^2 real operations per vertex,
+// against the K^3 float32 ones of the Jacobian.
+#include "common.glsl"
+layout(local_size_x = 256) in;
+
+// Values b and derivatives db (d/dy: d/dtau times the span's scale `s`) of one axis's
+// K functions at local parameter t, evaluated in reals and rounded once.
+void eval_axis_d(int off, int K, int first, float t, real s, out float b[KMAX], out float db[KMAX]) {
+  const int base = off + first * K * K;
+  const real rt = r_f(t);
+  for (int r = 0; r < KMAX; ++r) {
+    if (r >= K) {
+      b[r] = 0.0;
+      db[r] = 0.0;
+      continue;
+    }
+    real v = nrm_tab[base + (K - 1) * K + r], dv = r_zero();
+    for (int q = K - 2; q >= 0; --q) {
+      dv = r_add(r_mul(dv, rt), v);
+      v = r_add(r_mul(v, rt), nrm_tab[base + q * K + r]);
+    }
+    b[r] = r_to_float(v);
+    db[r] = r_to_float(r_mul(dv, s));
+  }
+}
+
+void main() {
+  const bool offsets = (pc.flags & 8) != 0;
+  // Start of the derivative scales in `nrm_tab`: after the three axes' span tables
+  // (n - d spans of K x K coefficients each).
+  const int ds_u = POLY_W + KW * KW * (NW - KW + 1);
+  const int ds_v = ds_u + (NU - KU + 1);
+  const int ds_w = ds_v + (NV - KV + 1);
+  const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+  for (uint v = gl_GlobalInvocationID.x; v < uint(NVERT); v += stride) {
+    const int i0 = span[3 * v], j0 = span[3 * v + 1], k0 = span[3 * v + 2];
+    float bu[KMAX], bv[KMAX], bw[KMAX], du[KMAX], dv[KMAX], dw[KMAX];
+    eval_axis_d(0, KU, i0, tau[3 * v], nrm_tab[ds_u + i0], bu, du);
+    eval_axis_d(POLY_V, KV, j0, tau[3 * v + 1], nrm_tab[ds_v + j0], bv, dv);
+    eval_axis_d(POLY_W, KW, k0, tau[3 * v + 2], nrm_tab[ds_w + k0], bw, dw);
+    const int base = (i0 * NV + j0) * NW + k0;
+    // Tensor-product sums, innermost axis first (as ffd.comp): column a of J is
+    // sum_c q_c dB_c/dy_a.
+    vec3 c0 = vec3(0.0), c1 = vec3(0.0), c2 = vec3(0.0);
+    for (int i = 0; i < KU; ++i) {
+      vec3 a00 = vec3(0.0), a10 = vec3(0.0), a01 = vec3(0.0);  // (v, w) = (B, B), (B', B), (B, B')
+      for (int j = 0; j < KV; ++j) {
+        const int row = base + (i * NV + j) * NW;
+        vec3 s0 = vec3(0.0), s1 = vec3(0.0);
+        for (int k = 0; k < KW; ++k) {
+          const int c = row + k;
+          vec3 q = vec3(P[3 * c], P[3 * c + 1], P[3 * c + 2]);
+          if (offsets)
+            q += vec3(r_to_float(delta[c]), r_to_float(delta[NCP + c]), r_to_float(delta[2 * NCP + c]));
+          s0 += bw[k] * q;
+          s1 += dw[k] * q;
+        }
+        a00 += bv[j] * s0;
+        a10 += dv[j] * s0;
+        a01 += bv[j] * s1;
+      }
+      c0 += du[i] * a00;
+      c1 += bu[i] * a10;
+      c2 += bu[i] * a01;
+    }
+    const vec3 n0 = vec3(nrm0[3 * v], nrm0[3 * v + 1], nrm0[3 * v + 2]);
+    const vec3 n = n0.x * cross(c1, c2) + n0.y * cross(c2, c0) + n0.z * cross(c0, c1);
+    const float len = length(n);
+    // Zero where cof(J) n0 vanishes or overflows, as the CPU's normalized_or_zero.
+    const vec3 out_n = (len > 0.0 && !isinf(len) && !isnan(len)) ? n / len : vec3(0.0);
+    nrm[3 * v] = out_n.x;
+    nrm[3 * v + 1] = out_n.y;
+    nrm[3 * v + 2] = out_n.z;
+  }
+}
