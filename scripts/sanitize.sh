@@ -22,6 +22,12 @@ if [ "$what" = all ] || [ "$what" = cpp ]; then
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVPFFD_SANITIZE=$SAN >/dev/null
   cmake --build build/asan -j 2
   (cd build/asan && ctest --output-on-failure -j 2)
+  # The fuzzer's mutants of every mesh format through the C++ readers, sanitized.
+  echo "sanitize: fuzz corpus through the C++ readers (${VPFFD_FUZZ_PER_KIND:-2000} per format)"
+  rm -rf build/asan/fuzz-corpus
+  .venv/bin/python tests/fuzz/fuzz_io.py --write-only build/asan/fuzz-corpus --seed 7 \
+    --per-kind "${VPFFD_FUZZ_PER_KIND:-2000}"
+  build/asan/tests/vpffd_fuzz_replay build/asan/fuzz-corpus
 fi
 
 if [ "$what" = all ] || [ "$what" = py ]; then

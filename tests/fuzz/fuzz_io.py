@@ -132,6 +132,24 @@ def fuzz(per_kind: int, seed: int, out: Path, kinds=None, batch: int = 400, time
     return summary
 
 
+def write_corpus(per_kind: int, seed: int, dest: Path, kinds=None) -> int:
+    """Writes the same mutants ``fuzz`` would load (same seed, same names) into
+    ``dest`` without loading them, for a replay through the C++ readers under the
+    sanitizers (tests/fuzz/replay.cpp, scripts/sanitize.sh). Returns the count."""
+    dest.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix="vpffd-fuzz-"))
+    n = 0
+    try:
+        corpus = seeds.seeds(str(scratch))
+        for kind in kinds or seeds.KINDS:
+            for name, data in inputs(kind, corpus, per_kind, seed):
+                (dest / name).write_bytes(data)
+                n += 1
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    return n
+
+
 def _finding(summary, out: Path, path: Path, why: str, log):
     dest = out / "findings"
     dest.mkdir(exist_ok=True)
@@ -149,7 +167,13 @@ def main(argv=None):
     ap.add_argument("--batch", type=int, default=400, help="inputs per child process")
     ap.add_argument("--timeout", type=float, default=20.0, help="seconds one input may take")
     ap.add_argument("--as-mb", type=int, default=1024, help="address space a child may add after importing vpffd")
+    ap.add_argument("--write-only", type=Path, metavar="DIR",
+                    help="only write the mutants into DIR (for tests/fuzz/replay.cpp under the sanitizers)")
     args = ap.parse_args(argv)
+    if args.write_only:
+        n = write_corpus(args.per_kind, args.seed, args.write_only, args.kinds)
+        print(f"{n} inputs written to {args.write_only}")
+        return 0
     s = fuzz(args.per_kind, args.seed, args.out, args.kinds, args.batch, args.timeout, args.as_mb)
     total = sum(k["inputs"] for k in s["kinds"].values())
     print(f"{total} inputs, {len(s['findings'])} findings; summary in {args.out / 'summary.json'}")

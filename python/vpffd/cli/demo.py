@@ -303,9 +303,10 @@ def _csv(scenes, path: Path) -> None:
 
 
 def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320, 240), stream=None,
-             progress=None, backend: str = "serial") -> dict:
-    """Runs both animations with every variant, prints the table and writes the
-    pictures under ``out``.
+             progress=None, backend: str = "serial", motion: bool = True) -> dict:
+    """Runs both animations with every variant, then the moving-object scenes
+    (``vpffd.cli.motion``: a shoal round a ring, walkers on a Moebius band), prints
+    the tables and writes the pictures under ``out``.
 
     Parameters
     ----------
@@ -326,12 +327,15 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
         Deformer backend. Serial by default: on meshes of a few thousand
         vertices a frame takes a few milliseconds, less than waking threads
         costs on a busy machine.
+    motion : bool
+        also run the moving-object scenes (GIFs, ``motion_volume.png``/``.csv``).
 
     Returns
     -------
     dict
-        ``scenes`` (list of Scene with their results), ``files`` (paths written),
-        ``seconds``, ``rendered`` (bool).
+        ``scenes`` (list of Scene with their results), ``motion_scenes`` (list of
+        ``vpffd.cli.motion.MotionScene``), ``files`` (paths written), ``seconds``,
+        ``rendered`` (bool).
     """
     stream = sys.stdout if stream is None else stream
     if render:  # before minutes of deforming, not when the first frame is drawn
@@ -373,6 +377,29 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
         files.append(out / "volume.png")
     _csv(scenes, out / "volume.csv")
     files.append(out / "volume.csv")
+    moving = []
+    if motion:
+        from . import motion as mo
+        print("\nObjects moving through a fixed deformation (GPU FFD paper, section 3): every frame moves the "
+              "rest mesh, the control points stay", file=stream)
+        for make in (mo.shoal, mo.mobius_walk):
+            s = make(quick)
+            bar = progress(f"{s.key}: deforming", s.frames * len(mo.MOTION_VARIANTS)) if progress else None
+            mo.run_motion(s, backend=backend, progress=bar)
+            if bar:
+                bar.close()
+            mo.table(s, stream)
+            if can_render:
+                bar = progress(f"{s.key}: rendering", s.frames * len(mo.MOTION_VARIANTS)) if progress else None
+                files += mo.render(s, out, size, progress=bar)
+                if bar:
+                    bar.close()
+            moving.append(s)
+        if has_mpl:
+            mo.plot(moving, out / "motion_volume.png")
+            files.append(out / "motion_volume.png")
+        mo.write_csv(moving, out / "motion_volume.csv")
+        files.append(out / "motion_volume.csv")
     secs = time.perf_counter() - t0
     print("", file=stream)
     if not can_render:
@@ -386,7 +413,13 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
         print(f"GIFs and key frames: {', '.join(str(out / (s.key + '.gif')) for s in scenes)}, "
               f"{', '.join(str(out / (s.key + '_keyframes.png')) for s in scenes)}", file=stream)
         print("panels from left to right: " + " | ".join(v[1] for v in VARIANTS), file=stream)
+        if moving:
+            print(f"moving objects: {', '.join(str(out / (s.key + '.gif')) for s in moving)} "
+                  f"(plain FFD | each object's volume kept; objects coloured by their volume change)", file=stream)
     plot = (f"volume plot: {out / 'volume.png'}" if has_mpl else
             'no volume plot: matplotlib is not installed (pip install "vpffd[demo]")')
-    print(f"{plot}, numbers: {out / 'volume.csv'}  ({secs:.1f} s)", file=stream)
-    return dict(scenes=scenes, files=files, seconds=secs, rendered=can_render)
+    if moving and has_mpl:
+        plot += f", {out / 'motion_volume.png'}"
+    print(f"{plot}, numbers: {out / 'volume.csv'}{', ' + str(out / 'motion_volume.csv') if moving else ''}  "
+          f"({secs:.1f} s)", file=stream)
+    return dict(scenes=scenes, motion_scenes=moving, files=files, seconds=secs, rendered=can_render)

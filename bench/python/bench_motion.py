@@ -1,0 +1,143 @@
+#!/usr/bin/env python
+"""Frames per second of the GPU-FFD paper's three moving-object scenes (001_…, §3)
+at its vertex counts, with the per-frame embedding included (issue 13).
+
+    .venv/bin/python bench/python/bench_motion.py [--frames 20] [--backends serial openmp vulkan] [--md out.md]
+
+Scenes (meshes generated in code, the paper's counts):
+  * whales: 4 x 28,212 = 112,848 vertices (fish, uv_sphere(218, 130)) round a closed
+    ring lattice 18x4x4 whose tube narrows and widens; paper: 7.5 fps;
+  * ants:   7 x 10,500 = 73,500 vertices (fish, uv_sphere(182, 58)) along a Moebius
+    band lattice 20x4x3; paper: 8.4 fps;
+  * car:    66,002 vertices (a stretched uv_sphere(201, 330); paper: 66,000) driving
+    over a terrain lattice 16x6x4 periodic along x; paper: 5.5 fps.
+Per scene and backend: the median over ``--frames`` frames of moving the rest mesh
+(``set_rest_vertices``), of the frame (``deform``, plain and with every object's
+volume kept, ``parts="components"``; on Vulkan the whole scene's volume), and the fps of both together. The paper's
+figures come from its own GPU (a GeForce 6800, 2006) and are printed as its
+claims, never as a ratio against ours. On lavapipe (Vulkan on the CPU) the Vulkan
+figures are functional, not GPU speeds. The load average is printed: compare
+only figures from one run.
+"""
+import argparse
+import os
+import platform
+import time
+
+import numpy as np
+
+import vpffd
+from vpffd import animate, edits, shapes
+from vpffd.cli.motion import _join, _moved
+
+PAPER_FPS = {"whales": 7.5, "ants": 8.4, "car": 5.5}
+
+
+def whales():
+    fish = shapes.fish(218, 130, length=1.0)
+    L = 1.6 * 4
+    lat = vpffd.Lattice((0.0, -0.36, -0.48), (L, 0.36, 0.48), shape=(18, 4, 4), degree=3, periodic="x",
+                        seam="closed")
+    P = edits.ring(lat)
+    n = P.shape[0]
+    c = P.mean(axis=(1, 2), keepdims=True)
+    P = c + (P - c) * (1.0 + 0.3 * np.sin(3 * 2 * np.pi * np.arange(n) / n))[:, None, None, None]
+    mesh = _join([_moved(fish, ((i + 0.5) * 1.6, 0.0, 0.0)) for i in range(4)])
+    return mesh, lat, P, animate.PathOffset(lat, "x", speed=L / 3 / 4.0)
+
+
+def ants():
+    ant = shapes.fish(182, 58, length=1.0)
+    L = 8.0
+    lat = vpffd.Lattice((0.0, -0.5, -0.4), (L, 0.5, 0.4), shape=(20, 4, 3), degree=3, periodic="x", seam="twist")
+    P = edits.mobius(lat, radius=1.6)
+    mesh = _join([_moved(ant, (0.6 + 0.6 * i, 0.0, 0.21), (0.45, 0.9, 0.5)) for i in range(7)])
+    return mesh, lat, P, animate.PathOffset(lat, "x", speed=L / 6.0)
+
+
+def car():
+    body = shapes.uv_sphere(201, 330)
+    L = 12.0
+    lat = vpffd.Lattice((0.0, -1.0, -0.2), (L, 1.0, 1.2), shape=(16, 6, 4), degree=3, periodic="x", seam="shift")
+    P = edits.terrain(lat, lambda x, y: 0.35 * np.sin(2 * np.pi * 2 * x / L) * np.cos(0.8 * y))
+    mesh = _moved(Mesh(body.vertices[:, [2, 0, 1]], body.faces), (2.0, 0.0, 0.4), (1.2, 0.5, 0.3))
+    return mesh, lat, P, animate.PathOffset(lat, "x", speed=L / 5.0)
+
+
+Mesh = vpffd.Mesh
+SCENES = {"whales": whales, "ants": ants, "car": car}
+
+
+def measure(mesh, lat, P, path, backend, threads, frames, preserve):
+    # Every object keeps its own volume on the CPU; the Vulkan backend keeps the
+    # volume of the whole scene (parts are a CPU feature).
+    kw = dict(backend=backend)
+    if backend != "vulkan":
+        kw["threads"] = threads
+        if preserve:
+            kw["parts"] = "components"
+    d = vpffd.Deformer(mesh, lat, **kw)
+    times = np.linspace(0.0, 4.0, frames + 1)
+    Xs = [path.positions(mesh.vertices, t) for t in times]
+    d.set_rest_vertices(Xs[0])
+    d.deform(P, preserve_volume=preserve)  # warm-up
+    emb, frm = [], []
+    for X in Xs[1:]:
+        t0 = time.perf_counter()
+        d.set_rest_vertices(X)
+        t1 = time.perf_counter()
+        d.deform(P, preserve_volume=preserve)
+        t2 = time.perf_counter()
+        emb.append(t1 - t0)
+        frm.append(t2 - t1)
+    e, f = 1e3 * np.median(emb), 1e3 * np.median(frm)
+    return e, f, 1e3 / (e + f)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--frames", type=int, default=20)
+    ap.add_argument("--scenes", nargs="*", default=list(SCENES), choices=list(SCENES))
+    ap.add_argument("--backends", nargs="*", default=None, help="default: serial, openmp (1 and 2 threads), "
+                    "and vulkan when available")
+    ap.add_argument("--md", help="also write the table as Markdown to this file")
+    a = ap.parse_args()
+    avail = vpffd.available_backends()
+    backends = a.backends or [b for b in ("serial", "openmp", "vulkan") if b in avail]
+    runs = []
+    for b in backends:
+        if b == "openmp":
+            runs += [(b, 1), (b, 2)]
+        else:
+            runs.append((b, None))
+    dev = ""
+    if "vulkan" in backends:
+        devs = vpffd.vulkan_devices()
+        dev = f"; Vulkan device: {devs[0]['name'] if devs else 'none'}"
+    head = (f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
+            f"load average at start {os.getloadavg()[0]:.2f}{dev}; {a.frames} frames, medians")
+    print(head)
+    rows = ["| scene | vertices | backend | threads | move rest mesh (ms) | plain frame (ms) | plain fps | "
+            "volume-kept frame (ms) | volume-kept fps | paper's fps (its GPU, 2006) |",
+            "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for name in a.scenes:
+        mesh, lat, P, path = SCENES[name]()
+        for b, th in runs:
+            try:
+                e, fp, fps_p = measure(mesh, lat, P, path, b, th, a.frames, False)
+                e2, fk, fps_k = measure(mesh, lat, P, path, b, th, a.frames, True)
+            except (vpffd.BackendUnavailableError, vpffd.InvalidInputError) as err:
+                print(f"{name} {b}: skipped ({err})")
+                continue
+            row = (f"| {name} | {mesh.n_vertices:,} | {b} | {th or '-'} | {np.median([e, e2]):.2f} | {fp:.1f} | "
+                   f"{fps_p:.1f} | {fk:.1f} | {fps_k:.1f} | {PAPER_FPS[name]} |")
+            rows.append(row)
+            print(row, flush=True)
+    print(f"load average at end {os.getloadavg()[0]:.2f}")
+    if a.md:
+        with open(a.md, "w") as fh:
+            fh.write(head + "\n\n" + "\n".join(rows) + f"\n\nload average at end {os.getloadavg()[0]:.2f}\n")
+
+
+if __name__ == "__main__":
+    main()
