@@ -370,9 +370,7 @@ class Deformer:
             self._last_frame = None  # the previous frame was of another rest mesh
         else:
             self._d.set_rest_vertices(X, self._threads)
-        old = self.mesh
-        self.mesh = Mesh(X, old.faces)
-        self.mesh._edges = old._edges  # same faces, same edges
+        self.mesh = self.mesh._with_vertices(X)
 
     @property
     def bytes_per_vertex(self) -> float:

@@ -178,6 +178,10 @@ TEST(MovingRest, EqualsAFreshDeformerBitForBit) {
       // The same operations on the same data in the same order: the same bits.
       EXPECT_EQ(D.rest_volume(), fresh.rest_volume());
       EXPECT_EQ(D.processing_order(), fresh.processing_order());
+      // The renumbered faces and their vertex-face lists are those of a fresh Deformer.
+      EXPECT_EQ(D.processing_adjacency().indptr, fresh.processing_adjacency().indptr);
+      EXPECT_EQ(D.processing_adjacency().faces, fresh.processing_adjacency().faces);
+      EXPECT_EQ(D.processing_faces(), fresh.processing_faces());
       const DeformResult a = D.deform(P, o), b = fresh.deform(P, o);
       EXPECT_EQ(a.vertices, b.vertices);
       EXPECT_EQ(a.offsets, b.offsets);

@@ -103,7 +103,26 @@ inline VectorXd solve_axis_offsets_parts(const double* alphas, int K, const doub
     }
   }
   const RowMatrixXd RW = R * iw.asDiagonal();
-  const Eigen::MatrixXd G = RW * R.transpose();
+  Eigen::MatrixXd G;
+  if (K <= 1) {
+    G = RW * R.transpose();
+  } else {
+    // Each part's row is non-zero only at the control points near it: summed column
+    // by column over the rows present there, G costs sum_c (rows at c)^2 instead of
+    // m^2 N, and never starts Eigen's threaded product (a loaded machine makes each
+    // of its parallel regions cost a time slice).
+    G = Eigen::MatrixXd::Zero(m, m);
+    std::vector<int> at;
+    at.reserve(m);
+    for (Index c = 0; c < N; ++c) {
+      if (!(iw[c] > 0)) continue;
+      at.clear();
+      for (int p = 0; p < m; ++p)
+        if (R(p, c) != 0) at.push_back(p);
+      for (int p : at)
+        for (int q : at) G(p, q) += RW(p, c) * R(q, c);
+    }
+  }
   if (sum_squares && K == 1) *sum_squares = std::ldexp(G(0, 0) * wmax, 2 * row_exponent[0]);
   const auto row_name = [&](int p) {
     return p < nv ? detail::concat("part ", p) : detail::concat("point constraint ", p - nv);

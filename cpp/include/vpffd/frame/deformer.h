@@ -135,7 +135,12 @@ class Deformer {
   /// Faces in face_processing_order(), numbered by processing position.
   const RowMatrixX3i& processing_faces() const { return Fs_; }
   /// Vertex -> faces lists of processing_faces().
-  const VertexFaces& processing_adjacency() const { return adjacency_; }
+  /// Built on first use and kept (CPU frames use the vertex rings instead).
+  const VertexFaces& processing_adjacency() const {
+    std::lock_guard<std::mutex> lock(adjacency_mutex_);
+    if (!adjacency_) adjacency_ = std::make_unique<VertexFaces>(vertex_faces(Fs_, n_vertices()));
+    return *adjacency_;
+  }
   const BasisTables& tables() const { return tables_; }
   OutsidePolicy outside_policy() const { return policy_; }
   /// Reference point of the volume sums (the lattice box centre).
@@ -164,14 +169,17 @@ class Deformer {
   }
 
   /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
-  /// vertex and face orders, the faces (as given and renumbered), the vertex-face
-  /// lists, the vertex rings and the rest vertices (about 200 bytes for a closed
-  /// mesh, F = 2V).
+  /// vertex and face orders, the faces (as given and renumbered), the vertex
+  /// rings, the rest vertices and, once built, the vertex-face lists (about 200
+  /// bytes for a closed mesh, F = 2V, with the lists; 28 less without).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size()) * per_int;
     bytes += double(order_.size() + rank_.size() + face_order_.size()) * per_int;
-    bytes += double(adjacency_.indptr.size() + adjacency_.faces.size()) * per_int;
+    {
+      std::lock_guard<std::mutex> lock(adjacency_mutex_);
+      if (adjacency_) bytes += double(adjacency_->indptr.size() + adjacency_->faces.size()) * per_int;
+    }
     bytes += double(rings_.indptr.size() + rings_.pairs.size()) * per_int;
     bytes += double(n_vertices()) * Embedding::bytes_per_point;
     return bytes / double(n_vertices());
@@ -272,8 +280,10 @@ class Deformer {
     // the per-vertex face sums stay local too (and each part's faces are together).
     std::vector<std::int32_t> forder = face_order(F_, rank);
     RowMatrixX3i Fs(F_.rows(), 3);
-    for (Index f = 0; f < F_.rows(); ++f)
-      for (int c = 0; c < 3; ++c) Fs(f, c) = rank[F_(forder[f], c)];
+    parallel_range(F_.rows(), threads, [&](Index b, Index e) {
+      for (Index f = b; f < e; ++f)
+        for (int c = 0; c < 3; ++c) Fs(f, c) = rank[F_(forder[f], c)];
+    });
     std::vector<Index> face_start(K + 1, 0);
     if (has_parts_) {
       for (Index f = 0; f < Fs.rows(); ++f) ++face_start[parts_.vertex_part[F_(forder[f], 0)] + 1];
@@ -287,9 +297,12 @@ class Deformer {
     VPFFD_CHECK(std::isfinite(rest_volume), where, ": the mesh's enclosed volume overflows double precision (",
                 rest_volume, "; coordinates up to ", V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
     Embedding Es = permute_embedding(E, order);
-    RowMatrixX3d Vs(nv, 3);
-    for (Index i = 0; i < nv; ++i) Vs.row(i) = V.row(order[i]);
-    VectorXd rest_parts = has_parts_ ? part_volumes(Vs.data(), Fs, face_start, origin_, threads) : VectorXd();
+    VectorXd rest_parts;
+    if (has_parts_) {
+      RowMatrixX3d Vs(nv, 3);
+      for (Index i = 0; i < nv; ++i) Vs.row(i) = V.row(order[i]);
+      rest_parts = part_volumes(Vs.data(), Fs, face_start, origin_, threads);
+    }
 
     V_ = V;
     order_.swap(order);
@@ -299,8 +312,11 @@ class Deformer {
     Fs_ = std::move(Fs);
     part_start_.swap(part_start);
     face_start_.swap(face_start);
-    adjacency_ = vertex_faces(Fs_, nv);
     rings_ = vertex_rings(Fs_, nv);
+    {
+      std::lock_guard<std::mutex> lock(adjacency_mutex_);
+      adjacency_.reset();  // of the old faces' numbering
+    }
     rest_volume_ = rest_volume;
     rest_part_volumes_ = std::move(rest_parts);
     std::lock_guard<std::mutex> lock(face_matrix_mutex_);
@@ -385,7 +401,8 @@ class Deformer {
   Embedding embedding_;              ///< in processing order
   RowMatrixX3i Fs_;                  ///< faces with processing-order indices
   EdgeReport edges_;
-  VertexFaces adjacency_;
+  mutable std::mutex adjacency_mutex_;
+  mutable std::unique_ptr<VertexFaces> adjacency_;  ///< of Fs_, built on first use
   VertexRings rings_;  ///< of Fs_
   Vector3d origin_;
   double rest_volume_ = 0;
@@ -633,7 +650,8 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       gather(delta, X, a, threads);
       lap(tm.gathers);
     }
-    res.volume = signed_volume(X, Fs_, origin_, threads);
+    res.part_volumes = part_volumes(X, Fs_, face_start_, origin_, threads);
+    res.volume = res.part_volumes.sum();
     lap(tm.volume);
   } else if (!pl.correcting) {
     // Nothing moves: one volume is both the before and the after.
@@ -689,7 +707,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   }
   if (has_parts_) {
     if (K > 1) {
-      res.part_volumes = part_volumes(X, Fs_, face_start_, origin_, threads);
+      if (res.part_volumes.size() == 0) res.part_volumes = part_volumes(X, Fs_, face_start_, origin_, threads);
     } else {
       res.part_volumes_before = VectorXd::Constant(1, res.volume_before);
       res.part_volumes = VectorXd::Constant(1, res.volume);
