@@ -348,10 +348,11 @@ class Deformer:
     def set_rest_vertices(self, vertices) -> None:
         """Moves the rest mesh: the next frame deforms ``vertices`` (V, 3) (same faces)
         exactly as a Deformer built on that mesh would: new embedding, processing
-        order and rest volume(s). Costs a small fraction of a frame's time on the CPU
-        (about one plain FFD and two sorts), so an object can travel through the
-        lattice frame by frame. ``mesh`` becomes a new Mesh of these vertices; the
-        caller's array is copied, never modified.
+        order and rest volume(s), so an object can travel through the lattice frame
+        by frame. On the CPU it costs about one xyz frame (embedding, two counting
+        sorts, renumbering the faces and rebuilding the vertex rings; measured by
+        ``bench/python/bench_parts.py``). ``mesh`` becomes a new Mesh of these
+        vertices; the caller's array is copied, never modified.
 
         Raises
         ------
