@@ -150,6 +150,12 @@ class DeformResult:
         with ``deform(..., normals=True)``: unit normals of the deformed surface at
         its vertices (``deformed_normals`` of the corrected control points: exact,
         cof(J) n0). On "vulkan" computed on the device in the frame's submission.
+    part_volumes, part_volumes_before : (K,) float64 or None
+        with a Deformer built with ``parts``: the volume of each part in the result
+        (measured) and after the plain FFD, in the order of ``Deformer.part_labels``.
+    part_target_volumes : (K,) float64 or None
+        with parts and ``preserve_volume``: the volume each part was corrected to
+        (``volume``, ``target_volume`` and ``rest_volume`` are then the sums).
     """
     vertices: np.ndarray
     control_points: np.ndarray
@@ -165,6 +171,9 @@ class DeformResult:
     faces: np.ndarray = None
     folds: object = None
     normals: np.ndarray = None
+    part_volumes: np.ndarray = None
+    part_volumes_before: np.ndarray = None
+    part_target_volumes: np.ndarray = None
 
     def to_trimesh(self):
         """The deformed mesh as a ``trimesh.Trimesh`` (vertex order kept; needs trimesh)."""
@@ -199,6 +208,25 @@ class DeformResult:
 # bytes) plus a frame's positions in processing and caller order and the result (72).
 _FRAME_BYTES_PER_CONTROL_POINT = 320
 _BYTES_PER_VERTEX = 256
+# With K parts an axis step holds K coefficient rows of N doubles, and the solve copies
+# them into its scaled and weighted rows: three K x N arrays of doubles.
+_FRAME_BYTES_PER_CONTROL_POINT_AND_PART = 24
+
+
+def _part_labels(parts, n_vertices: int):
+    """``parts`` as the binding takes it: None, "components", or (V,) int64 labels."""
+    if parts is None:
+        return None
+    if isinstance(parts, str):
+        if parts != "components":
+            raise InvalidInputError(f"parts: expected 'components' or one integer label per vertex, got {parts!r}")
+        return parts
+    arr = np.asarray(parts)
+    if arr.dtype == bool or not np.issubdtype(arr.dtype, np.integer):
+        raise TypeError(f"parts: expected integer labels (one per vertex) or 'components', got dtype {arr.dtype}")
+    if arr.shape != (n_vertices,):
+        raise InvalidInputError(f"parts: expected {n_vertices} labels (one per vertex), got shape {arr.shape}")
+    return np.array(arr, dtype=np.int64)
 
 
 class Deformer:
@@ -237,15 +265,29 @@ class Deformer:
         devices without float64, and an option where it is slow; same tolerances).
         Default: the VPFFD_VULKAN_PRECISION environment variable, else "auto"
         (float64 where the device has it). Ignored on the CPU, which is float64.
+    parts : (V,) integer labels or "components", optional
+        several objects in one mesh, each keeping its own volume: a label per
+        vertex (every face's vertices must share one, and each part must be
+        closed), or "components" for the connected components of the faces.
+        ``deform(preserve_volume=True)`` then restores every part's volume (one
+        volume row per part in each axis step's solve); results carry
+        ``part_volumes``. Parts run on the CPU backends only ("auto" picks the CPU).
+
+    Attributes
+    ----------
+    mesh : Mesh
+        the rest mesh: after ``set_rest_vertices`` a new Mesh with the new rest
+        vertices and the same faces (a Mesh object held elsewhere is unchanged).
     """
 
     def __init__(self, mesh, lattice: Lattice, backend: str = "auto", outside: str = "error", threads=None,
-                 device=None, gpu_precision=None):
+                 device=None, gpu_precision=None, parts=None):
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice: expected a vpffd.Lattice, got {type(lattice).__name__}")
         precision = _requested_precision(gpu_precision)
         self.mesh = Mesh.from_any(mesh)
         self.lattice = lattice
+        labels = _part_labels(parts, self.mesh.n_vertices)
         _check_memory(lattice.n_control_points, "Deformer", _FRAME_BYTES_PER_CONTROL_POINT,
                       _BYTES_PER_VERTEX * self.mesh.n_vertices)
         if lattice.periodic:
@@ -257,7 +299,12 @@ class Deformer:
                     f"backends support; use backend='auto', 'openmp' or 'serial'")
             if backend == "auto":
                 backend = "openmp" if _core.has_openmp() else "serial"
+        if labels is not None and backend == "auto" and device is None:
+            backend = "openmp" if _core.has_openmp() and (os.cpu_count() or 1) > 1 else "serial"
         self.backend, self._threads, selector = _resolve_backend(backend, threads, device, self.mesh.n_vertices)
+        if labels is not None and self.backend == "vulkan":
+            raise BackendUnavailableError("Deformer: parts are computed on the CPU backends only; use backend "
+                                          "'openmp' or 'serial' (or 'auto' without a device)")
         self._vk = None
         if self.backend == "vulkan":
             try:
@@ -271,14 +318,73 @@ class Deformer:
                                                                   threads)
         # The CPU core keeps the rest volume, matrices, ffd() and jacobians() for both.
         self._d = self._vk.cpu if self._vk is not None else _core.Deformer(
-            self.mesh.vertices, self.mesh.faces, lattice._spec, outside, self._threads)
+            self.mesh.vertices, self.mesh.faces, lattice._spec, outside, self._threads, labels)
         self._last_frame = None  # Vulkan: the arguments of the last frame kept (see on_fold)
+        if labels is not None:
+            _check_memory(lattice.n_control_points, f"Deformer with {self._d.n_parts} parts",
+                          _FRAME_BYTES_PER_CONTROL_POINT + _FRAME_BYTES_PER_CONTROL_POINT_AND_PART * self._d.n_parts,
+                          _BYTES_PER_VERTEX * self.mesh.n_vertices)
 
     # --- properties -----------------------------------------------------------
     @property
     def rest_volume(self) -> float:
         """Volume of the rest mesh (raises for an open mesh)."""
         return self._d.rest_volume()
+
+    @property
+    def rest_vertices(self) -> np.ndarray:
+        """(V, 3) float64 the current rest vertices (read-only; ``set_rest_vertices`` moves them)."""
+        return self.mesh.vertices
+
+    @property
+    def n_parts(self) -> int:
+        """Number of parts (1 without ``parts``: the whole mesh)."""
+        return self._d.n_parts
+
+    @property
+    def part_labels(self):
+        """(K,) int64 the label of each part, in the order of ``part_volumes`` (for
+        ``parts="components"``: 0..K-1, components numbered by their lowest vertex);
+        None without parts."""
+        return np.array(self._d.part_labels, dtype=np.int64) if self._d.has_parts else None
+
+    @property
+    def vertex_parts(self):
+        """(V,) int32 the part index (0..K-1) of each vertex; None without parts.
+        Vertices that no face uses are in part 0."""
+        return self._d.vertex_parts if self._d.has_parts else None
+
+    @property
+    def rest_part_volumes(self):
+        """(K,) float64 the volume of each part of the rest mesh; None without parts."""
+        return self._d.rest_part_volumes() if self._d.has_parts else None
+
+    def set_rest_vertices(self, vertices) -> None:
+        """Moves the rest mesh: the next frame deforms ``vertices`` (V, 3) (same faces)
+        exactly as a Deformer built on that mesh would: new embedding, processing
+        order and rest volume(s), so an object can travel through the lattice frame
+        by frame. On the CPU it costs about one xyz frame (embedding, two counting
+        sorts, renumbering the faces and rebuilding the vertex rings; measured by
+        ``bench/python/bench_parts.py``). ``mesh`` becomes a new Mesh of these
+        vertices; the caller's array is copied, never modified.
+
+        Raises
+        ------
+        InvalidInputError
+            wrong shape, NaN/Inf, or vertices outside the lattice box (unless built
+            with ``outside="extrapolate"``): the message says how many and the first.
+            The Deformer is unchanged then.
+        BackendUnavailableError
+            on "vulkan": moving the rest mesh runs on the CPU backends only (the
+            device's embedding kernel and on-device cell sort are not built yet).
+        """
+        X = _arrays.points(vertices, "set_rest_vertices: vertices", rows=self.mesh.n_vertices)
+        if self._vk is not None:
+            raise BackendUnavailableError(
+                "set_rest_vertices: moving the rest mesh runs on the CPU backends only (the Vulkan backend embeds "
+                "its vertices once); build this Deformer with backend='openmp' or 'serial'")
+        self._d.set_rest_vertices(X, self._threads)
+        self.mesh = self.mesh._with_vertices(X)
 
     @property
     def bytes_per_vertex(self) -> float:
@@ -362,8 +468,9 @@ class Deformer:
             point constraints (Problem 2): ``source`` is a vertex index or a
             rest-space point (3,), ``target`` the (3,) world position it must reach.
             Any number; each must move only along corrected axes.
-        target_volume : float, optional
-            default: the rest volume.
+        target_volume : float or sequence of K floats, optional
+            default: the rest volume. With ``parts``: one volume per part (in the
+            order of ``part_labels``), default each part's rest volume.
         method : {"traversal", "csr"}
             how the coefficients are computed (same result to ~1e-12). The
             "vulkan" backend always runs the traversal: it accepts "csr" (refused
@@ -434,7 +541,18 @@ class Deformer:
         if not 1 <= rounds <= 64:
             raise InvalidInputError(f"deform: rounds is {rounds}; expected 1..64")
         tv = None
-        if target_volume is not None:
+        part_targets = None
+        if target_volume is not None and self._d.has_parts and np.ndim(target_volume) > 0:
+            arr = np.asarray(target_volume)
+            if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+                raise TypeError(f"target_volume: expected numbers, got dtype {arr.dtype}")
+            if arr.shape != (self._d.n_parts,):
+                raise InvalidInputError(f"target_volume: expected one volume per part ({self._d.n_parts}), "
+                                        f"got shape {arr.shape}")
+            part_targets = [float(v) for v in arr]
+            if not np.isfinite(part_targets).all():
+                raise InvalidInputError(f"target_volume: expected finite numbers, got {arr}")
+        elif target_volume is not None:
             if isinstance(target_volume, (bool, np.bool_)) or not isinstance(
                     target_volume, (int, float, np.integer, np.floating)):
                 raise TypeError(f"target_volume: expected a number, got {type(target_volume).__name__}")
@@ -450,7 +568,9 @@ class Deformer:
             warnings.warn("deform: the mesh is not closed; the volume kept is that of the cone from the lattice "
                           "centre, which depends on where that centre is", stacklevel=2)
         args = (P, bool(preserve_volume), axes, w, fx, cons, tv, method, self._threads, bool(allow_open))
-        if self._vk is not None:
+        if part_targets is not None:
+            r = self._d.deform(*args, int(rounds), part_targets=part_targets)
+        elif self._vk is not None:
             r = self._vk.deform(*args, int(rounds), normals=bool(normals))
         else:
             r = self._d.deform(*args, int(rounds))
@@ -466,7 +586,8 @@ class Deformer:
             rest_volume=rest, constraint_error=r["constraint_error"], steps=r["steps"],
             # The device always runs the traversal: report what ran, not what was asked.
             backend=self.backend, method="traversal" if self._vk is not None else method, folds=folds,
-            faces=self.mesh.faces, normals=self._frame_normals(r, normals))
+            faces=self.mesh.faces, normals=self._frame_normals(r, normals), part_volumes=r.get("part_volumes"),
+            part_volumes_before=r.get("part_volumes_before"), part_target_volumes=r.get("part_targets"))
 
     def _frame_normals(self, r, wanted):
         """The frame's normals: the device's, or on the CPU deformed_normals of its control points."""

@@ -33,6 +33,14 @@ class Mesh:
         self._V, self._F = V, F
         self._edges = None
 
+    def _with_vertices(self, V: np.ndarray) -> "Mesh":
+        """The same faces with new vertices ``V``: a checked (#V, 3) float64 array that
+        this Mesh takes over (the faces and their edge report are shared, not checked again)."""
+        m = Mesh.__new__(Mesh)
+        V.setflags(write=False)
+        m._V, m._F, m._edges = V, self._F, self._edges
+        return m
+
     @classmethod
     def from_any(cls, obj) -> "Mesh":
         """A Mesh from a Mesh, a (vertices, faces) pair, or any object with

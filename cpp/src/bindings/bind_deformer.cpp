@@ -6,15 +6,56 @@
 
 namespace vpffd::bindings {
 
+namespace {
+
+/// None, "components" or one integer label per vertex (the Python layer has checked
+/// the array's kind and shape) as MeshParts; nullopt for None.
+std::optional<MeshParts> parse_parts(const py::object& parts, RefF F, Index n_vertices) {
+  if (parts.is_none()) return std::nullopt;
+  if (py::isinstance<py::str>(parts)) {
+    const std::string s = parts.cast<std::string>();
+    VPFFD_CHECK(s == "components", "parts: expected 'components' or one integer label per vertex, got '", s, "'");
+    return parts_from_components(F, n_vertices);
+  }
+  const auto labels = parts.cast<std::vector<std::int64_t>>();
+  return parts_from_labels(F, labels, n_vertices);
+}
+
+}  // namespace
+
 void bind_deformer(py::module_& m) {
   py::class_<Deformer, std::unique_ptr<Deformer>>(m, "Deformer")
-      .def(py::init([](RefV V, RefF F, const Lattice& L, const std::string& outside, int threads) {
+      .def(py::init([](RefV V, RefF F, const Lattice& L, const std::string& outside, int threads,
+                       const py::object& parts) {
              const OutsidePolicy pol = parse_outside_policy(outside);
+             std::optional<MeshParts> mp;
+             {
+               py::gil_scoped_release release;
+               validate_mesh(V, F, "Deformer");
+             }
+             mp = parse_parts(parts, F, V.rows());
              py::gil_scoped_release release;
-             return std::make_unique<Deformer>(V, F, L, pol, threads);
+             return std::make_unique<Deformer>(V, F, L, pol, threads, mp ? &*mp : nullptr);
            }),
            py::arg("vertices"), py::arg("faces"), py::arg("lattice"), py::arg("outside") = "error",
-           py::arg("threads") = 0)
+           py::arg("threads") = 0, py::arg("parts") = py::none())
+      .def(
+          "set_rest_vertices",
+          [](Deformer& d, RefV X, int threads) {
+            py::gil_scoped_release release;
+            d.set_rest_vertices(X, threads);
+          },
+          py::arg("vertices"), py::arg("threads") = 0)
+      .def_property_readonly("rest_vertices", &Deformer::rest_vertices, py::return_value_policy::copy)
+      .def_property_readonly("has_parts", &Deformer::has_parts)
+      .def_property_readonly("n_parts", &Deformer::n_parts)
+      .def_property_readonly("part_labels", [](const Deformer& d) { return d.parts().labels; })
+      .def_property_readonly("vertex_parts",
+                             [](const Deformer& d) {
+                               const auto& vp = d.parts().vertex_part;
+                               return py::array_t<std::int32_t>(static_cast<py::ssize_t>(vp.size()), vp.data());
+                             })
+      .def("rest_part_volumes", &Deformer::rest_part_volumes)
       .def_property_readonly("n_vertices", &Deformer::n_vertices)
       .def_property_readonly("n_faces", &Deformer::n_faces)
       .def_property_readonly("n_control_points", &Deformer::n_control_points)
@@ -83,10 +124,11 @@ void bind_deformer(py::module_& m) {
              std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
              const PyConstraints& constraints,
              std::optional<double> target_volume, const std::string& method, int threads, bool allow_open, int rounds,
-             bool record_timings) {
+             bool record_timings, std::optional<std::vector<double>> part_targets) {
             CorrectionOptions o = make_options(preserve_volume, axes, std::move(weights), std::move(fixed),
                                                constraints, target_volume, method, threads, allow_open, rounds);
             o.record_timings = record_timings;
+            if (part_targets) o.part_targets = std::move(*part_targets);
             DeformResult r;
             {
               py::gil_scoped_release release;
@@ -98,7 +140,8 @@ void bind_deformer(py::module_& m) {
           py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
           py::arg("constraints") = PyConstraints{},
           py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0,
-          py::arg("allow_open") = false, py::arg("rounds") = 1, py::arg("record_timings") = false);
+          py::arg("allow_open") = false, py::arg("rounds") = 1, py::arg("record_timings") = false,
+          py::arg("part_targets") = py::none());
 }
 
 }  // namespace vpffd::bindings

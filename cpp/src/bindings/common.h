@@ -41,6 +41,11 @@ inline py::dict result_to_python(DeformResult&& r) {
   d["volume"] = r.volume;
   d["target_volume"] = r.target_volume;
   d["constraint_error"] = r.constraint_error;
+  if (r.part_volumes.size() > 0) {
+    d["part_volumes_before"] = py::cast(std::move(r.part_volumes_before));
+    d["part_volumes"] = py::cast(std::move(r.part_volumes));
+    if (r.part_targets.size() > 0) d["part_targets"] = py::cast(std::move(r.part_targets));
+  }
   py::list steps;
   for (const AxisStep& s : r.steps) {
     py::dict e;

@@ -61,6 +61,9 @@ struct CorrectionOptions {
   std::vector<std::uint8_t> fixed; ///< empty, or 1 per control point that must not move
   std::vector<PointConstraint> constraints;
   double target_volume = std::numeric_limits<double>::quiet_NaN();  ///< NaN: the rest volume
+  /// With a Deformer of several parts: empty (each part keeps its rest volume), or one
+  /// target volume per part. `target_volume` then must be NaN (or the mesh one part).
+  std::vector<double> part_targets;
   CoefficientMethod method = CoefficientMethod::Traversal;
   int threads = 0;  ///< 0: all OpenMP threads; 1: serial
   /// Correct the volume of a mesh that is not closed. The "volume" of an open
@@ -97,6 +100,9 @@ struct DeformResult {
   double volume = std::numeric_limits<double>::quiet_NaN();         ///< of the result, measured
   double target_volume = std::numeric_limits<double>::quiet_NaN();
   double constraint_error = 0;  ///< largest |D(u_s) - T| component over the constraints
+  /// With a Deformer built with parts (else empty): per part, the volume after the
+  /// plain FFD, the volume of the result (measured) and, when preserving, its target.
+  VectorXd part_volumes_before, part_volumes, part_targets;
   std::vector<AxisStep> steps;
   FrameTimings timings;  ///< filled when CorrectionOptions::record_timings
 };

@@ -31,42 +31,64 @@ inline Index count_free_points(const VectorXd& inv_weight) {
   return free_points;
 }
 
-/// @throws SolverError when an axis step has more conditions (the volume row if
-/// `volume`, and `n_constraints` rows) than free control points. Shared so that
-/// every backend, and a check made before any step runs, says the same.
-inline void check_free_points(bool volume, size_t n_constraints, Index free_points, char axis) {
-  const Index m = (volume ? 1 : 0) + static_cast<Index>(n_constraints);
-  if (m > free_points)
-    throw SolverError(detail::concat("correction along ", axis, ": ", m, " conditions (", volume ? "volume + " : "",
-                                     n_constraints, " point constraints) but only ", free_points,
-                                     " free control points"));
+/// @throws SolverError when an axis step has more conditions (`n_volume` volume
+/// rows, one per part, and `n_constraints` rows) than free control points. Shared
+/// so that every backend, and a check made before any step runs, says the same.
+inline void check_free_points(int n_volume, size_t n_constraints, Index free_points, char axis) {
+  const Index m = n_volume + static_cast<Index>(n_constraints);
+  if (m > free_points) {
+    const std::string volume = n_volume == 0   ? std::string()
+                               : n_volume == 1 ? std::string("volume + ")
+                                               : detail::concat(n_volume, " part volumes + ");
+    throw SolverError(detail::concat("correction along ", axis, ": ", m, " conditions (", volume, n_constraints,
+                                     " point constraints) but only ", free_points, " free control points"));
+  }
 }
 
-/// One axis step. `alpha` may be null (no volume row). `inv_weight` has N
-/// entries, 0 for fixed control points.
-/// @param[out] sum_squares  alpha^T W^-1 alpha (0 without a volume row)
-/// @throws SolverError when the system has no solution, saying why.
-inline VectorXd solve_axis_offsets(const VectorXd* alpha, double volume_rhs, const std::vector<SparseVec>& rows,
-                                   const std::vector<double>& rows_rhs, const VectorXd& inv_weight, char axis,
-                                   double* sum_squares = nullptr) {
+/// One axis step with K volume rows (one per part of the mesh; K = 0: none).
+/// @param alphas      K x N row-major volume coefficients (null when K = 0)
+/// @param volume_rhs  K volume changes the step must make
+/// @param inv_weight  N entries, 0 for fixed control points
+/// @param[out] sum_squares  t^T W^-1 t for t the sum of the K rows (the whole
+///                          mesh's coefficients; 0 without a volume row)
+/// @throws SolverError when the system has no solution, saying why (naming the
+///         parts and constraints whose rows are zero or dependent).
+inline VectorXd solve_axis_offsets_parts(const double* alphas, int K, const double* volume_rhs,
+                                         const std::vector<SparseVec>& rows, const std::vector<double>& rows_rhs,
+                                         const VectorXd& inv_weight, char axis, double* sum_squares = nullptr) {
   const Index N = inv_weight.size();
-  const int nv = alpha ? 1 : 0;
+  const int nv = K;
   const int m = nv + static_cast<int>(rows.size());
   RowMatrixXd R = RowMatrixXd::Zero(m, N);
   Eigen::VectorXd b(m);
-  if (alpha) {
-    R.row(0) = alpha->transpose();
-    b[0] = volume_rhs;
+  for (int k = 0; k < K; ++k) {
+    R.row(k) = Eigen::Map<const Eigen::RowVectorXd>(alphas + static_cast<size_t>(k) * N, N);
+    b[k] = volume_rhs[k];
   }
   for (size_t s = 0; s < rows.size(); ++s) {
     for (size_t q = 0; q < rows[s].index.size(); ++q) R(nv + s, rows[s].index[q]) += rows[s].value[q];
     b[nv + s] = rows_rhs[s];
   }
-  check_free_points(alpha != nullptr, rows.size(), count_free_points(inv_weight), axis);
+  check_free_points(K, rows.size(), count_free_points(inv_weight), axis);
   if (!R.allFinite() || !b.allFinite())
     throw SolverError(detail::concat("correction along ", axis,
                                      ": the coefficients or targets overflow double precision (control points, "
                                      "mesh or target volume too large)"));
+  // Scaling all weights alike does not change the minimiser; scaling them to a
+  // largest inverse of 1 keeps the sums below in range whatever the user's units.
+  const double wmax = inv_weight.maxCoeff();
+  const VectorXd iw = inv_weight / wmax;
+  if (sum_squares) {
+    *sum_squares = 0.0;
+    if (K > 1) {
+      // Scaled by a power of two as the rows below, so the square cannot overflow.
+      Eigen::RowVectorXd t = R.topRows(K).colwise().sum();
+      const double big = t.cwiseAbs().maxCoeff();
+      const int e = big > 0 ? std::ilogb(big) : 0;
+      t *= std::ldexp(1.0, -e);
+      *sum_squares = std::ldexp((t.array().square() * iw.transpose().array()).sum() * wmax, 2 * e);
+    }
+  }
   // Scaling a row and its right-hand side by the same power of two changes neither the
   // minimiser nor any rounding, but keeps the sums of squares below in range: volume
   // coefficients grow with the square of the mesh's size, and for meshes of size 1e100 or
@@ -80,22 +102,45 @@ inline VectorXd solve_axis_offsets(const VectorXd* alpha, double volume_rhs, con
       b[p] = std::ldexp(b[p], -row_exponent[p]);
     }
   }
-  // Scaling all weights alike does not change the minimiser; scaling them to a
-  // largest inverse of 1 keeps the sums below in range whatever the user's units.
-  const double wmax = inv_weight.maxCoeff();
-  const VectorXd iw = inv_weight / wmax;
   const RowMatrixXd RW = R * iw.asDiagonal();
-  const Eigen::MatrixXd G = RW * R.transpose();
-  if (sum_squares) *sum_squares = alpha ? std::ldexp(G(0, 0) * wmax, 2 * row_exponent[0]) : 0.0;
+  Eigen::MatrixXd G;
+  if (K <= 1) {
+    G = RW * R.transpose();
+  } else {
+    // Each part's row is non-zero only at the control points near it: summed column
+    // by column over the rows present there, G costs sum_c (rows at c)^2 instead of
+    // m^2 N, and never starts Eigen's threaded product (a loaded machine makes each
+    // of its parallel regions cost a time slice).
+    G = Eigen::MatrixXd::Zero(m, m);
+    std::vector<int> at;
+    at.reserve(m);
+    for (Index c = 0; c < N; ++c) {
+      if (!(iw[c] > 0)) continue;
+      at.clear();
+      for (int p = 0; p < m; ++p)
+        if (R(p, c) != 0) at.push_back(p);
+      for (int p : at)
+        for (int q : at) G(p, q) += RW(p, c) * R(q, c);
+    }
+  }
+  if (sum_squares && K == 1) *sum_squares = std::ldexp(G(0, 0) * wmax, 2 * row_exponent[0]);
+  const auto row_name = [&](int p) {
+    return p < nv ? detail::concat("part ", p) : detail::concat("point constraint ", p - nv);
+  };
   for (int p = 0; p < m; ++p) {
     // A zero row means nothing free can move that condition; relative to the
     // row's unweighted norm, so the test does not depend on units.
     const double scale = R.row(p).squaredNorm();
     if (!(scale > 0) || !(G(p, p) > 1e-24 * scale)) {
-      if (alpha && p == 0)
+      if (K == 1 && p == 0)
         throw SolverError(detail::concat("correction along ", axis,
                                          ": the volume coefficients of the free control points are all zero "
                                          "(the mesh is flat along this axis, or every control point that "
+                                         "influences it is fixed)"));
+      if (p < nv)
+        throw SolverError(detail::concat("correction along ", axis, ": the volume coefficients of part ", p,
+                                         " are zero at every free control point (the part is flat along this "
+                                         "axis, outside the lattice's reach, or every control point that "
                                          "influences it is fixed)"));
       throw SolverError(detail::concat("correction along ", axis, ": point constraint ", p - nv,
                                        " cannot move: every control point that influences it is fixed"));
@@ -106,12 +151,28 @@ inline VectorXd solve_axis_offsets(const VectorXd* alpha, double volume_rhs, con
   const Eigen::MatrixXd Gn = d.asDiagonal() * G * d.asDiagonal();
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Gn);
   const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
-  if (!(lo > 1e-12 * hi))
-    throw SolverError(detail::concat("correction along ", axis, ": the ", nv ? "volume and point" : "point",
-                                     " constraints are linearly dependent (condition number ",
-                                     lo > 0 ? hi / lo : INFINITY,
-                                     "); two constraints on the same point, or a constraint the volume row "
-                                     "already fixes?"));
+  if (!(lo > 1e-12 * hi)) {
+    if (K <= 1)
+      throw SolverError(detail::concat("correction along ", axis, ": the ", nv ? "volume and point" : "point",
+                                       " constraints are linearly dependent (condition number ",
+                                       lo > 0 ? hi / lo : INFINITY,
+                                       "); two constraints on the same point, or a constraint the volume row "
+                                       "already fixes?"));
+    // The eigenvector of the smallest eigenvalue is the combination of rows that
+    // (nearly) vanishes: its large entries name the rows that depend on each other.
+    Eigen::Index lowest = 0;
+    eig.eigenvalues().minCoeff(&lowest);
+    const Eigen::VectorXd z = eig.eigenvectors().col(lowest).cwiseAbs();
+    std::string names;
+    int listed = 0;
+    for (int p = 0; p < m; ++p)
+      if (z[p] >= 0.1 * z.maxCoeff() && listed < 8) names += (listed++ ? ", " : "") + row_name(p);
+    throw SolverError(detail::concat("correction along ", axis, ": the volume rows of the parts and the point "
+                                     "constraints are linearly dependent (condition number ",
+                                     lo > 0 ? hi / lo : INFINITY, "): ", names,
+                                     " cannot be met independently (parts moved by the same few control points "
+                                     "once the others are fixed, or a constraint a volume row already fixes?)"));
+  }
   const auto solve = [&](const Eigen::VectorXd& rhs) -> Eigen::VectorXd {
     return d.asDiagonal() * (eig.eigenvectors() * (eig.eigenvalues().cwiseInverse().asDiagonal() *
                                                    (eig.eigenvectors().transpose() * (d.asDiagonal() * rhs))));
@@ -122,6 +183,17 @@ inline VectorXd solve_axis_offsets(const VectorXd* alpha, double volume_rhs, con
   const Eigen::VectorXd residual = b - R * delta;
   delta += RW.transpose() * solve(residual);
   return delta;
+}
+
+/// One axis step with at most one volume row. `alpha` may be null (no volume row).
+/// `inv_weight` has N entries, 0 for fixed control points.
+/// @param[out] sum_squares  alpha^T W^-1 alpha (0 without a volume row)
+/// @throws SolverError when the system has no solution, saying why.
+inline VectorXd solve_axis_offsets(const VectorXd* alpha, double volume_rhs, const std::vector<SparseVec>& rows,
+                                   const std::vector<double>& rows_rhs, const VectorXd& inv_weight, char axis,
+                                   double* sum_squares = nullptr) {
+  return solve_axis_offsets_parts(alpha ? alpha->data() : nullptr, alpha ? 1 : 0, &volume_rhs, rows, rows_rhs,
+                                  inv_weight, axis, sum_squares);
 }
 
 }  // namespace vpffd

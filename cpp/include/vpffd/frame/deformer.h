@@ -25,8 +25,10 @@
 #include "vpffd/ffd/vertex_order.h"
 #include "vpffd/lattice/embed.h"
 #include "vpffd/lattice/periodic.h"
+#include "vpffd/mesh/parts.h"
 #include "vpffd/mesh/validate.h"
 #include "vpffd/volume/coefficients.h"
+#include "vpffd/volume/part_coefficients.h"
 #include "vpffd/mesh/volume.h"
 
 namespace vpffd {
@@ -37,7 +39,8 @@ namespace vpffd {
 struct FramePlan {
   bool correcting = false;    ///< volume or constraints to correct
   bool measure = false;       ///< the volume is defined (closed mesh, or allow_open)
-  double target = 0;          ///< target volume
+  double target = 0;          ///< target volume (with parts: the sum of part_targets)
+  VectorXd part_targets;      ///< with parts: one target volume per part
   VectorXd inv_weight;        ///< N: 1 / weight, 0 for fixed control points
   Index free_points = 0;      ///< control points with inv_weight > 0 (checked against the conditions)
   Embedding sources;          ///< the constraint points embedded in the lattice
@@ -72,45 +75,47 @@ class Deformer {
   /// Embeds the mesh (V, F) in lattice L.
   /// @param[in] V  #V x 3 rest vertices
   /// @param[in] F  #F x 3 triangles (indices into V)
-  /// @throws InvalidInputError for a bad mesh, a bad lattice, or vertices outside it
+  /// @param parts  null, or the mesh's parts (mesh/parts.h): each part then keeps
+  ///               its own volume (one volume row per part in every axis step)
+  /// @throws InvalidInputError for a bad mesh, a bad lattice, vertices outside it,
+  ///         or parts that do not each bound a volume
   Deformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F, Lattice L,
-           OutsidePolicy policy = OutsidePolicy::Error, int threads = 0)
-      : lattice_(std::move(L)), V_(V), F_(F), policy_(policy) {
-    validate_mesh(V_, F_, "Deformer");
+           OutsidePolicy policy = OutsidePolicy::Error, int threads = 0, const MeshParts* parts = nullptr)
+      : lattice_(std::move(L)), F_(F), policy_(policy) {
+    validate_mesh(V, F_, "Deformer");
     validate_lattice(lattice_);
     ties_ = make_ties(lattice_);
+    if (parts) {
+      VPFFD_CHECK(Index(parts->vertex_part.size()) == V.rows() && parts->count >= 1 &&
+                      Index(parts->labels.size()) == parts->count,
+                  "Deformer: the parts are for another mesh (", parts->vertex_part.size(), " vertex labels, ",
+                  V.rows(), " vertices)");
+      require_closed_parts(F_, *parts);
+      parts_ = *parts;
+      has_parts_ = true;
+    }
     tables_ = basis_tables(lattice_);
-    {
-      // Frames run in cell order (vertex_order.h); the faces are renumbered to match
-      // and reordered too (below), so face sums round differently from unsorted ones.
-      const Embedding E = embed(lattice_, V_, policy_, threads);
-      order_ = cell_order(tables_, E);
-      rank_ = inverse_order(order_);
-      embedding_ = permute_embedding(E, order_);
-    }
-    {
-      const RowMatrixX3d T = seam_translations(lattice_, V_);
-      if (T.rows() > 0) {
-        seam_shift_.resize(T.rows(), 3);
-        for (Index i = 0; i < T.rows(); ++i) seam_shift_.row(i) = T.row(order_[i]);
-      }
-    }
-    // Faces follow their lowest vertex in processing order, so the face pass and
-    // the per-vertex face sums stay local too.
-    face_order_ = face_order(F_, rank_);
-    Fs_.resize(F_.rows(), 3);
-    for (Index f = 0; f < F_.rows(); ++f)
-      for (int c = 0; c < 3; ++c) Fs_(f, c) = rank_[F_(face_order_[f], c)];
     edges_ = edge_report(F_);
-    adjacency_ = vertex_faces(Fs_, V_.rows());
-    rings_ = vertex_rings(Fs_, V_.rows());
     origin_ = 0.5 * (lattice_.box_min + lattice_.box_max);
-    rest_volume_ = signed_volume(V_, F_, origin_, threads);
-    // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
-    // and every volume a frame reports or aims at would be inf or NaN.
-    VPFFD_CHECK(std::isfinite(rest_volume_), "Deformer: the mesh's enclosed volume overflows double precision (",
-                rest_volume_, "; coordinates up to ", V_.cwiseAbs().maxCoeff(),
-                "); scale the mesh to smaller units");
+    embed_rest(V, threads, "Deformer");
+  }
+
+  /// Moves the rest mesh to X (same faces): the next frame deforms X as a Deformer
+  /// built on it would (same embedding, processing order, rest volumes; the same
+  /// results bit for bit). The faces, their checks and the parts are kept. Not to be
+  /// called while a frame runs on this Deformer.
+  /// @param[in] X  #V x 3 new rest vertices
+  /// @throws InvalidInputError for a wrong shape, non-finite coordinates, or vertices
+  ///         outside the lattice box (unless built with OutsidePolicy::Extrapolate);
+  ///         the Deformer is unchanged then.
+  void set_rest_vertices(const Eigen::Ref<const RowMatrixX3d>& X, int threads = 0) {
+    VPFFD_CHECK(X.rows() == n_vertices(), "set_rest_vertices: ", X.rows(), " vertices, the mesh has ", n_vertices(),
+                " (the faces stay; give every vertex a new position)");
+    for (Index v = 0; v < X.rows(); ++v)
+      VPFFD_CHECK(std::isfinite(X(v, 0)) && std::isfinite(X(v, 1)) && std::isfinite(X(v, 2)),
+                  "set_rest_vertices: vertex ", v, " has a non-finite coordinate (", X(v, 0), ", ", X(v, 1), ", ",
+                  X(v, 2), ")");
+    embed_rest(X, threads, "set_rest_vertices");
   }
 
   Deformer(const Deformer&) = delete;
@@ -137,11 +142,31 @@ class Deformer {
   /// Faces in face_processing_order(), numbered by processing position.
   const RowMatrixX3i& processing_faces() const { return Fs_; }
   /// Vertex -> faces lists of processing_faces().
-  const VertexFaces& processing_adjacency() const { return adjacency_; }
+  /// Built on first use and kept (CPU frames use the vertex rings instead).
+  const VertexFaces& processing_adjacency() const {
+    std::lock_guard<std::mutex> lock(adjacency_mutex_);
+    if (!adjacency_) adjacency_ = std::make_unique<VertexFaces>(vertex_faces(Fs_, n_vertices()));
+    return *adjacency_;
+  }
   const BasisTables& tables() const { return tables_; }
   OutsidePolicy outside_policy() const { return policy_; }
   /// Reference point of the volume sums (the lattice box centre).
   const Vector3d& origin() const { return origin_; }
+
+  /// Whether the Deformer was built with parts (then n_parts() may still be 1).
+  bool has_parts() const { return has_parts_; }
+  /// Number of parts (1 without parts: the whole mesh).
+  int n_parts() const { return parts_.count; }
+  /// The parts (vertex_part is empty without parts).
+  const MeshParts& parts() const { return parts_; }
+  /// Each part's vertices in processing order: [part_start()[k], part_start()[k+1]).
+  const std::vector<Index>& part_start() const { return part_start_; }
+  /// Enclosed volume of each part of the rest mesh (K; the whole mesh without parts,
+  /// and then only when it is closed). @throws InvalidInputError for an open mesh
+  VectorXd rest_part_volumes() const {
+    if (!has_parts_) return VectorXd::Constant(1, rest_volume());
+    return rest_part_volumes_;
+  }
 
   /// Enclosed volume of the rest mesh. @throws InvalidInputError if it is not
   /// closed, unless `allow_open` (then: the cone volume from origin()).
@@ -151,14 +176,17 @@ class Deformer {
   }
 
   /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
-  /// vertex and face orders, the faces (as given and renumbered), the vertex-face
-  /// lists, the vertex rings and the rest vertices (about 200 bytes for a closed
-  /// mesh, F = 2V).
+  /// vertex and face orders, the faces (as given and renumbered), the vertex
+  /// rings, the rest vertices and, once built, the vertex-face lists (about 200
+  /// bytes for a closed mesh, F = 2V, with the lists; 28 less without).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size()) * per_int;
     bytes += double(order_.size() + rank_.size() + face_order_.size()) * per_int;
-    bytes += double(adjacency_.indptr.size() + adjacency_.faces.size()) * per_int;
+    {
+      std::lock_guard<std::mutex> lock(adjacency_mutex_);
+      if (adjacency_) bytes += double(adjacency_->indptr.size() + adjacency_->faces.size()) * per_int;
+    }
     bytes += double(rings_.indptr.size() + rings_.pairs.size()) * per_int;
     bytes += double(n_vertices()) * Embedding::bytes_per_point;
     return bytes / double(n_vertices());
@@ -198,9 +226,8 @@ class Deformer {
   /// The paper's N x F face matrix, built on first use and kept. Its column j
   /// is face face_processing_order()[j]; see face_matrix_in_face_order().
   const CsrMatrix& face_matrix(int threads = 0) const {
-    std::call_once(face_matrix_once_, [&] {
-      face_matrix_ = std::make_unique<CsrMatrix>(face_basis_matrix(tables_, embedding_, Fs_, threads));
-    });
+    std::lock_guard<std::mutex> lock(face_matrix_mutex_);
+    if (!face_matrix_) face_matrix_ = std::make_unique<CsrMatrix>(face_basis_matrix(tables_, embedding_, Fs_, threads));
     return *face_matrix_;
   }
 
@@ -227,6 +254,95 @@ class Deformer {
   FramePlan plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
 
  private:
+  /// Everything that depends on the rest positions, from V: embedding, processing
+  /// orders (by part, then by cell), renumbered faces, rings, rest volumes. Computed
+  /// aside and then swapped in, so a throw leaves the Deformer as it was.
+  void embed_rest(const Eigen::Ref<const RowMatrixX3d>& V, int threads, const char* where) {
+    const Index nv = V.rows();
+    Embedding E;
+    try {
+      E = embed(lattice_, V, policy_, threads);
+    } catch (const InvalidInputError& e) {
+      throw InvalidInputError(std::string(where) + ": " + e.what());
+    }
+    // Frames run in cell order (vertex_order.h); the faces are renumbered to match
+    // and reordered too (below), so face sums round differently from unsorted ones.
+    std::vector<std::int32_t> order = cell_order(tables_, E);
+    const int K = parts_.count;
+    std::vector<Index> part_start(K + 1, 0);
+    if (has_parts_) {
+      // Each part's vertices together (in cell order within it): a part's
+      // coefficients are then the scatter of one range of vertices.
+      std::vector<std::int32_t> key(nv);
+      for (Index i = 0; i < nv; ++i) key[i] = parts_.vertex_part[order[i]];
+      const std::vector<std::int32_t> by_part = counting_sort(key, K);
+      std::vector<std::int32_t> sorted(nv);
+      for (Index i = 0; i < nv; ++i) sorted[i] = order[by_part[i]];
+      order.swap(sorted);
+      for (Index i = 0; i < nv; ++i) ++part_start[key[i] + 1];
+      for (int k = 0; k < K; ++k) part_start[k + 1] += part_start[k];
+    } else {
+      part_start[1] = nv;
+    }
+    std::vector<std::int32_t> rank = inverse_order(order);
+    // Along a "shift" seam a wrapped vertex maps to D(wrapped) + its translation
+    // (lattice/periodic.h), kept per vertex in processing order.
+    RowMatrixX3d shift;
+    {
+      const RowMatrixX3d T = seam_translations(lattice_, V);
+      if (T.rows() > 0) {
+        shift.resize(T.rows(), 3);
+        for (Index i = 0; i < T.rows(); ++i) shift.row(i) = T.row(order[i]);
+      }
+    }
+    // Faces follow their lowest vertex in processing order, so the face pass and
+    // the per-vertex face sums stay local too (and each part's faces are together).
+    std::vector<std::int32_t> forder = face_order(F_, rank);
+    RowMatrixX3i Fs(F_.rows(), 3);
+    parallel_range(F_.rows(), threads, [&](Index b, Index e) {
+      for (Index f = b; f < e; ++f)
+        for (int c = 0; c < 3; ++c) Fs(f, c) = rank[F_(forder[f], c)];
+    });
+    std::vector<Index> face_start(K + 1, 0);
+    if (has_parts_) {
+      for (Index f = 0; f < Fs.rows(); ++f) ++face_start[parts_.vertex_part[F_(forder[f], 0)] + 1];
+      for (int k = 0; k < K; ++k) face_start[k + 1] += face_start[k];
+    } else {
+      face_start[1] = Fs.rows();
+    }
+    const double rest_volume = signed_volume(V, F_, origin_, threads);
+    // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
+    // and every volume a frame reports or aims at would be inf or NaN.
+    VPFFD_CHECK(std::isfinite(rest_volume), where, ": the mesh's enclosed volume overflows double precision (",
+                rest_volume, "; coordinates up to ", V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
+    Embedding Es = permute_embedding(E, order);
+    VectorXd rest_parts;
+    if (has_parts_) {
+      RowMatrixX3d Vs(nv, 3);
+      for (Index i = 0; i < nv; ++i) Vs.row(i) = V.row(order[i]);
+      rest_parts = part_volumes(Vs.data(), Fs, face_start, origin_, threads);
+    }
+
+    V_ = V;
+    order_.swap(order);
+    rank_.swap(rank);
+    embedding_ = std::move(Es);
+    seam_shift_ = std::move(shift);
+    face_order_.swap(forder);
+    Fs_ = std::move(Fs);
+    part_start_.swap(part_start);
+    face_start_.swap(face_start);
+    rings_ = vertex_rings(Fs_, nv);
+    {
+      std::lock_guard<std::mutex> lock(adjacency_mutex_);
+      adjacency_.reset();  // of the old faces' numbering
+    }
+    rest_volume_ = rest_volume;
+    rest_part_volumes_ = std::move(rest_parts);
+    std::lock_guard<std::mutex> lock(face_matrix_mutex_);
+    face_matrix_.reset();  // built from the old embedding and faces
+  }
+
   void check_control_points(const Eigen::Ref<const RowMatrixX3d>& P, const char* where) const {
     VPFFD_CHECK(P.rows() == n_control_points(), where, ": ", P.rows(), " control points, the lattice has ",
                 n_control_points());
@@ -311,11 +427,17 @@ class Deformer {
   Embedding embedding_;              ///< in processing order
   RowMatrixX3i Fs_;                  ///< faces with processing-order indices
   EdgeReport edges_;
-  VertexFaces adjacency_;
+  mutable std::mutex adjacency_mutex_;
+  mutable std::unique_ptr<VertexFaces> adjacency_;  ///< of Fs_, built on first use
   VertexRings rings_;  ///< of Fs_
   Vector3d origin_;
   double rest_volume_ = 0;
-  mutable std::once_flag face_matrix_once_;
+  bool has_parts_ = false;
+  MeshParts parts_;                  ///< count 1 and no labels without parts
+  std::vector<Index> part_start_;    ///< K + 1: each part's vertices in processing order
+  std::vector<Index> face_start_;    ///< K + 1: each part's faces in Fs_
+  VectorXd rest_part_volumes_;       ///< K, with parts
+  mutable std::mutex face_matrix_mutex_;
   mutable std::unique_ptr<CsrMatrix> face_matrix_;
 };
 
@@ -384,6 +506,33 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
   plan.measure = is_closed() || opt.allow_open;
   plan.target = std::isnan(opt.target_volume) ? rest_volume_ : opt.target_volume;
   VPFFD_CHECK(std::isfinite(plan.target), "deform: target_volume is ", plan.target, "; expected a finite number");
+  if (has_parts_) {
+    const int K = parts_.count;
+    if (!opt.part_targets.empty()) {
+      VPFFD_CHECK(Index(opt.part_targets.size()) == K, "deform: ", opt.part_targets.size(),
+                  " target volumes, expected one per part (", K, ")");
+      VPFFD_CHECK(std::isnan(opt.target_volume), "deform: give either one target volume per part or target_volume");
+      plan.part_targets = Eigen::Map<const VectorXd>(opt.part_targets.data(), K);
+      for (int k = 0; k < K; ++k)
+        VPFFD_CHECK(std::isfinite(plan.part_targets[k]), "deform: the target volume of part ", k, " is ",
+                    plan.part_targets[k], "; expected a finite number");
+    } else if (!std::isnan(opt.target_volume)) {
+      VPFFD_CHECK(K == 1, "deform: one target_volume for ", K,
+                  " parts; give one target volume per part (a sequence of ", K, " numbers)");
+      plan.part_targets = VectorXd::Constant(1, opt.target_volume);
+    } else {
+      plan.part_targets = rest_part_volumes_;
+    }
+    plan.target = plan.part_targets.sum();
+    VPFFD_CHECK(std::isfinite(plan.target), "deform: the target volumes' sum is ", plan.target,
+                "; expected a finite number");
+    if (opt.preserve_volume && K > 1)
+      VPFFD_CHECK(opt.method == CoefficientMethod::Traversal,
+                  "deform: method='csr' keeps one volume; with several parts use method='traversal'");
+  } else {
+    VPFFD_CHECK(opt.part_targets.empty(), "deform: ", opt.part_targets.size(),
+                " target volumes per part, but this Deformer was built without parts");
+  }
 
   // Constraint sources: basis rows at their parameters.
   const size_t nc = opt.constraints.size();
@@ -434,7 +583,8 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
   // cannot be corrected fails before any work, with the same message on every backend.
   plan.free_points = count_free_points(plan.inv_weight);
   if (opt.preserve_volume) check_method(opt.method);
-  if (plan.correcting) check_free_points(opt.preserve_volume, nc, plan.free_points, axis_name[opt.axes[0]]);
+  if (plan.correcting)
+    check_free_points(opt.preserve_volume ? parts_.count : 0, nc, plan.free_points, axis_name[opt.axes[0]]);
   return plan;
 }
 
@@ -505,7 +655,40 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   bool have_vertices = false;  // res.vertices already written (fused into the last gather)
 
   // --- axis steps -------------------------------------------------------------
-  if (!pl.correcting) {
+  const int K = parts_.count;
+  if (K > 1) res.part_volumes_before = part_volumes(X, Fs_, face_start_, origin_, threads);
+  if (K > 1 && opt.preserve_volume) {
+    // One volume row per part in each step; the step's volume record is the whole mesh's.
+    const int naxes = static_cast<int>(opt.axes.size());
+    const int k = naxes * opt.rounds;
+    res.volume_before = res.part_volumes_before.sum();
+    lap(tm.volume);
+    for (int step = 0; step < k; ++step) {
+      const int a = opt.axes[step % naxes];
+      AxisStep info;
+      info.axis = a;
+      const PartCoefficients co = part_coefficients_rings(tables_, embedding_, rings_, X, a, origin_, part_start_,
+                                                          threads);
+      lap(tm.coefficients);
+      info.volume_before = co.volume.sum();
+      // Equal shares of what each part still misses: after the last axis every part is at its target.
+      const VectorXd shares = (pl.part_targets - co.volume) / double(k - step);
+      info.share = shares.sum();
+      const VectorXd Pa = expand_column(ties_, P.col(a) + res.offsets.col(a), a);
+      const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, Pa);
+      const VectorXd delta = solve_tied_parts(pl.ties, co.alpha.data(), co.alpha.cols(), K, shares.data(), rows, rhs,
+                                              pl.inv_weight, axis_name[a], &info.sum_squares);
+      info.max_offset = delta.cwiseAbs().maxCoeff();
+      res.offsets.col(a) += delta;
+      res.steps.push_back(info);
+      lap(tm.solves);
+      gather(expand_offsets(ties_, delta), X, a, threads);
+      lap(tm.gathers);
+    }
+    res.part_volumes = part_volumes(X, Fs_, face_start_, origin_, threads);
+    res.volume = res.part_volumes.sum();
+    lap(tm.volume);
+  } else if (!pl.correcting) {
     // Nothing moves: one volume is both the before and the after.
     if (pl.measure) res.volume_before = res.volume = signed_volume(X, Fs_, origin_, threads);
     lap(tm.volume);
@@ -557,6 +740,15 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     }
     if (!fused) res.volume = signed_volume(X, Fs_, origin_, threads);
     lap(tm.volume);
+  }
+  if (has_parts_) {
+    if (K > 1) {
+      if (res.part_volumes.size() == 0) res.part_volumes = part_volumes(X, Fs_, face_start_, origin_, threads);
+    } else {
+      res.part_volumes_before = VectorXd::Constant(1, res.volume_before);
+      res.part_volumes = VectorXd::Constant(1, res.volume);
+    }
+    if (opt.preserve_volume) res.part_targets = pl.part_targets;
   }
   res.control_points = P + res.offsets;
   if (!have_vertices) res.vertices = to_caller_order(Xs, threads);

@@ -44,6 +44,21 @@ inline int scatter_chunks(Index nv, Index N) {
   return chunk_count(nv, 8192, max_chunks);
 }
 
+/// A vertex's volume weight from its ring (coefficients_rings): (1/6) sum over its
+/// faces (v, m, n) of ((p_m - b) x (p_n - b))_ax, b = (b1, b2) in the other two axes.
+template <int ax>
+inline double ring_weight(const double* X, const std::int32_t* ip, const std::int32_t* pr, Index v, double b1,
+                          double b2) {
+  constexpr int a1 = (ax + 1) % 3, a2 = (ax + 2) % 3;
+  double w = 0;
+  for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) {
+    const double* pm = X + 3 * Index(pr[2 * p]);
+    const double* pn = X + 3 * Index(pr[2 * p + 1]);
+    w += (pm[a1] - b1) * (pn[a2] - b2) - (pm[a2] - b2) * (pn[a1] - b1);
+  }
+  return w * (1.0 / 6.0);
+}
+
 }  // namespace detail
 
 /// O(F + N) single traversal (Section 7): each face's normal component n_f is
@@ -147,14 +162,7 @@ inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding
       double vsum = 0;
       auto weight = [&](Index v) {
         const double* pv = X + 3 * v;
-        const double b1 = cone ? origin[a1] : pv[a1], b2 = cone ? origin[a2] : pv[a2];
-        double w = 0;
-        for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) {
-          const double* pm = X + 3 * Index(pr[2 * p]);
-          const double* pn = X + 3 * Index(pr[2 * p + 1]);
-          w += (pm[a1] - b1) * (pn[a2] - b2) - (pm[a2] - b2) * (pn[a1] - b1);
-        }
-        w *= (1.0 / 6.0);
+        const double w = detail::ring_weight<ax>(X, ip, pr, v, cone ? origin[a1] : pv[a1], cone ? origin[a2] : pv[a2]);
         if (weights) weights[v] = w;
         vsum += (pv[ax] - o) * w;
         return w;

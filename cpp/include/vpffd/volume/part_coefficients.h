@@ -1,0 +1,117 @@
+#pragma once
+/// @file part_coefficients.h
+/// The volume coefficients of one axis for each part of a mesh made of several
+/// closed parts (mesh/parts.h): K rows alpha_k with V_k + alpha_k . delta the
+/// volume of part k after moving the control points by delta along that axis.
+///
+/// The vertices must be in processing order with each part's vertices contiguous,
+/// [part_start[k], part_start[k+1]). Since every face lies in one part, a vertex's
+/// weight (coefficients_rings) is a derivative of its own part's volume only, and
+/// part k's coefficients are the scatter of its own vertices' weights.
+
+#include <vector>
+
+#include "vpffd/volume/coefficients.h"
+
+namespace vpffd {
+
+/// Coefficients and current volumes of the K parts, computed together.
+struct PartCoefficients {
+  RowMatrixXd alpha;  ///< K x N, row k the coefficients of part k
+  VectorXd volume;    ///< K part volumes
+};
+
+/// One pass over the vertices as coefficients_rings (closed parts, b = p_v). The
+/// work is split at part boundaries and at the usual fixed chunk boundaries; each
+/// piece scatters into its own buffer (a part in one piece into its row directly)
+/// and the pieces are summed in order: same result for any thread count.
+/// @param part_start  K + 1 offsets into the processing order
+inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embedding& E, const VertexRings& rings,
+                                                const double* X, int axis, const Vector3d& origin,
+                                                const std::vector<Index>& part_start, int threads = 0) {
+  const Index nv = E.size();
+  const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
+  const int K = static_cast<int>(part_start.size()) - 1;
+  VPFFD_CHECK(K >= 1 && part_start.back() == nv, "part_coefficients_rings: part offsets do not cover the ", nv,
+              " vertices");
+  struct Piece {
+    int part;
+    Index b, e;
+    double* acc;
+    double volume = 0;
+  };
+  // Pieces: each part cut at the multiples of the whole pass's chunk size.
+  const int chunks = chunk_count(nv);
+  std::vector<Piece> pieces;
+  std::vector<int> pieces_of(K, 0);
+  for (int k = 0; k < K; ++k) {
+    Index b = part_start[k];
+    while (b < part_start[k + 1]) {
+      int c = static_cast<int>(std::min<Index>((b * chunks) / nv, chunks - 1));
+      while (nv * (c + 1) / chunks <= b) ++c;  // the chunk that holds b
+      const Index e = std::min(part_start[k + 1], nv * (c + 1) / chunks);
+      pieces.push_back({k, b, e, nullptr});
+      ++pieces_of[k];
+      b = e;
+    }
+  }
+  PartCoefficients out;
+  out.alpha = RowMatrixXd::Zero(K, N);
+  size_t extra = 0;
+  for (const Piece& p : pieces) extra += pieces_of[p.part] > 1;
+  std::vector<double> buf(extra * N, 0.0);
+  size_t next = 0;
+  for (Piece& p : pieces)
+    p.acc = pieces_of[p.part] > 1 ? buf.data() + (next++) * N : out.alpha.row(p.part).data();
+
+  const std::int32_t* ip = rings.indptr.data();
+  const std::int32_t* pr = rings.pairs.data();
+  const double o = origin[axis];
+  auto pass = [&](auto axis_c) {
+    constexpr int ax = decltype(axis_c)::value;
+    const int nt = resolve_threads(threads);
+    const long np = static_cast<long>(pieces.size());
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic) num_threads(nt) if (nt > 1 && np > 1 && nv >= kParallelMin)
+#endif
+    for (long q = 0; q < np; ++q) {
+      Piece& piece = pieces[q];
+      double vsum = 0;
+      auto weight = [&](Index v) {
+        const double* pv = X + 3 * v;
+        const double w = detail::ring_weight<ax>(X, ip, pr, v, pv[(ax + 1) % 3], pv[(ax + 2) % 3]);
+        vsum += (pv[ax] - o) * w;
+        return w;
+      };
+      detail::dispatch_order(T, [&](auto Ko) {
+        detail::scatter_kernel<decltype(Ko)::value>(T, E, weight, piece.acc, piece.b, piece.e);
+      });
+      piece.volume = vsum;
+    }
+    (void)nt;
+  };
+  if (axis == 0) pass(std::integral_constant<int, 0>{});
+  else if (axis == 1) pass(std::integral_constant<int, 1>{});
+  else pass(std::integral_constant<int, 2>{});
+
+  out.volume = VectorXd::Zero(K);
+  for (const Piece& p : pieces) {
+    out.volume[p.part] += p.volume;
+    if (pieces_of[p.part] > 1)
+      Eigen::Map<VectorXd>(out.alpha.row(p.part).data(), N) += Eigen::Map<const VectorXd>(p.acc, N);
+  }
+  return out;
+}
+
+/// Volume of each part: the signed volume of its faces, which are contiguous in
+/// processing order, [face_start[k], face_start[k+1]) of `F`.
+inline VectorXd part_volumes(const double* X, const Eigen::Ref<const RowMatrixX3i>& F,
+                             const std::vector<Index>& face_start, const Vector3d& origin, int threads = 0) {
+  const int K = static_cast<int>(face_start.size()) - 1;
+  VectorXd vol(K);
+  for (int k = 0; k < K; ++k)
+    vol[k] = signed_volume(X, F.middleRows(face_start[k], face_start[k + 1] - face_start[k]), origin, threads);
+  return vol;
+}
+
+}  // namespace vpffd
