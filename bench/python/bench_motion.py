@@ -8,7 +8,7 @@ Scenes (meshes generated in code, the paper's counts):
   * whales: 4 x 28,212 = 112,848 vertices (fish, uv_sphere(218, 130)) round a closed
     ring lattice 18x4x4 whose tube narrows and widens; paper: 7.5 fps;
   * ants:   7 x 10,500 = 73,500 vertices (fish, uv_sphere(182, 58)) along a Moebius
-    band lattice 20x4x3; paper: 8.4 fps;
+    band lattice 20x4x4; paper: 8.4 fps;
   * car:    66,002 vertices (a stretched uv_sphere(201, 330); paper: 66,000) driving
     over a terrain lattice 16x6x4 periodic along x; paper: 5.5 fps.
 Per scene and backend: the median over ``--frames`` frames of moving the rest mesh
@@ -49,7 +49,7 @@ def whales():
 def ants():
     ant = shapes.fish(182, 58, length=1.0)
     L = 8.0
-    lat = vpffd.Lattice((0.0, -0.5, -0.4), (L, 0.5, 0.4), shape=(20, 4, 3), degree=3, periodic="x", seam="twist")
+    lat = vpffd.Lattice((0.0, -0.5, -0.4), (L, 0.5, 0.4), shape=(20, 4, 4), degree=3, periodic="x", seam="twist")
     P = edits.mobius(lat, radius=1.6)
     mesh = _join([_moved(ant, (0.6 + 0.6 * i, 0.0, 0.21), (0.45, 0.9, 0.5)) for i in range(7)])
     return mesh, lat, P, animate.PathOffset(lat, "x", speed=L / 6.0)

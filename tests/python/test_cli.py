@@ -68,6 +68,14 @@ def test_demo_end_to_end(tmp_path):
     for r in csv.DictReader((out / "volume.csv").open()):
         if r["variant"] != "plain":
             assert abs(float(r["relative_change"])) < 1e-10
+    # every object of the moving-object scenes keeps its volume; the plain FFD changes them
+    assert "Shoal" in stdout and "Moebius walk" in stdout
+    motion = list(csv.DictReader((out / "motion_volume.csv").open()))
+    assert len(motion) == 2 * 10 * 4 + 2 * 10 * 8  # variants x frames x objects (4 fish; band + 7 walkers)
+    kept = [abs(float(r["relative_change"])) for r in motion if r["variant"] == "kept"]
+    plain = [abs(float(r["relative_change"])) for r in motion if r["variant"] == "plain" and r["scene"] == "shoal"]
+    assert max(kept) < 1e-10 and max(plain) > 0.05
+    assert (out / "motion_volume.png").stat().st_size > 10_000
     if HAS_RENDER:
         from PIL import Image
         for scene, frames in (("twisting_cube", 9), ("bouncing_ball", 21)):
@@ -76,6 +84,9 @@ def test_demo_end_to_end(tmp_path):
             gif = Image.open(out / f"{scene}.gif")
             assert gif.n_frames == frames and gif.size == (4 * 320, 240)
             assert (out / f"{scene}_keyframes.png").exists()
+        for scene in ("shoal", "mobius_walk"):  # the moving-object scenes: plain | kept
+            gif = Image.open(out / f"{scene}.gif")
+            assert gif.n_frames == 10 and gif.size == (2 * 320, 240)
     else:
         assert "no frames or GIFs written" in stdout
         assert not list(out.glob("*.gif"))
@@ -272,7 +283,7 @@ def test_demo_rerun_removes_stale_frames(tmp_path):
     for name in ("frame_008.png", "frame_009.png", "frame_024.png", "frame_1000.png",
                  "frame_9.png", "frame_0024.png", "frame_010.png.bak", "notes.png"):
         (fdir / name).write_bytes(b"old")
-    r = run_demo(out=tmp_path, quick=True, size=(16, 12), stream=io.StringIO())
+    r = run_demo(out=tmp_path, quick=True, size=(16, 12), stream=io.StringIO(), motion=False)
     assert r["rendered"]
     names = sorted(p.name for p in fdir.iterdir())
     assert [n for n in names if n.startswith("frame_") and n.endswith(".png") and len(n) == 13] == \
@@ -321,7 +332,7 @@ def test_demo_without_pillow_and_matplotlib_says_what_to_install(tmp_path, monke
     monkeypatch.setattr(importlib.util, "find_spec",
                         lambda name, *a, **k: None if name in ("PIL", "matplotlib") else real(name, *a, **k))
     out = io.StringIO()
-    r = run_demo(out=tmp_path, quick=True, stream=out)
+    r = run_demo(out=tmp_path, quick=True, stream=out, motion=False)
     text = out.getvalue()
     first = text.index('pip install "vpffd[demo]"')
     assert first < text.index("Twisting cube")  # before the minutes of deforming

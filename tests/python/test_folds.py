@@ -346,7 +346,7 @@ def test_cli_deform_and_demo_print_fold_verdicts(tmp_path, capsys):
     assert "folds: fold-free" in capsys.readouterr().out
     import io
     s = io.StringIO()
-    res = run_demo(out=tmp_path / "demo", quick=True, render=False, stream=s)
+    res = run_demo(out=tmp_path / "demo", quick=True, render=False, stream=s, motion=False)
     text = s.getvalue()
     assert "folds (plain, " in text
     # one verdict word per variant on every frame line

@@ -102,7 +102,7 @@ def shoal(quick: bool = False, n_fish: int = 4) -> MotionScene:
 def mobius_walk(quick: bool = False, n_walkers: int = 7) -> MotionScene:
     """Creatures walking along a Moebius band: one lap brings them back on the other side."""
     L = 8.0
-    lat = Lattice((0.0, -0.5, -0.4), (L, 0.5, 0.4), shape=(14 if quick else 20, 4, 3), degree=3,
+    lat = Lattice((0.0, -0.5, -0.4), (L, 0.5, 0.4), shape=(14 if quick else 20, 4, 4), degree=3,
                   periodic="x", seam="twist")
     P = edits.mobius(lat, radius=1.6)
     # The band: a thin slab on the box's mid-plane along its whole length, so that the
@@ -120,9 +120,9 @@ def mobius_walk(quick: bool = False, n_walkers: int = 7) -> MotionScene:
     duration = 6.0
     path = PathOffset(lat, "x", speed=L / duration)  # one lap: they come back upside down
     return MotionScene("mobius_walk", f"Moebius walk: {n_walkers} walkers ({walker.n_vertices:,} vertices each) "
-                       f"on a band, lattice {lat.shape[0]}x4x3 periodic with a half twist",
+                       f"on a band, lattice {lat.shape[0]}x4x4 periodic with a half twist",
                        mesh, moving, ["band", *[f"walker {i + 1}" for i in range(n_walkers)]],
-                       lat, P, path, frames, duration, (0.3, -1.0, 1.1))
+                       lat, P, path, frames, duration, (0.5, -0.8, 0.9))
 
 
 def run_motion(scene: MotionScene, backend: str = "serial", progress=None) -> MotionScene:
