@@ -2,7 +2,8 @@
 """Writes docs/images/comparison.png, the README's picture of a deformation:
 a pear-like figure built in code (y up), squashed to 60 % along y, the volume
 correction allowed along x and z only (as `vpffd deform IN OUT --squash 0.6
---preserve xz --render PNG` draws it).
+--preserve xz --render PNG` draws it); and docs/images/shoal.png and
+mobius_walk.png, a frame of each of the demo's moving-object scenes.
 
     .venv/bin/python scripts/readme_images.py [--out docs/images]
 """
@@ -27,6 +28,17 @@ def main():
     vpffd.save_png(out, img)
     print(f"up {up} ({why}); plain FFD {100 * r.volume_change_before:+.2f} %, preserved error "
           f"{r.volume_error:.1e}; wrote {out}")
+    import shutil
+    import tempfile
+
+    from vpffd.cli import motion
+    for make, frame in ((motion.shoal, 17), (motion.mobius_walk, 4)):
+        scene = motion.run_motion(make())
+        with tempfile.TemporaryDirectory() as tmp:
+            motion.render(scene, Path(tmp), (480, 360))
+            dest = Path(a.out) / f"{scene.key}.png"
+            shutil.copy(Path(tmp) / scene.key / f"frame_{frame:03d}.png", dest)
+        print(f"wrote {dest}")
 
 
 if __name__ == "__main__":
