@@ -1,7 +1,8 @@
-import sys
 from pathlib import Path
 
 import pytest
+
+import vpffd
 
 SHARED_MESHES = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "meshes"
 
@@ -12,6 +13,18 @@ def shared_meshes():
     if not SHARED_MESHES.is_dir():
         pytest.skip("../shared/data/meshes is not present (a user's clone)")
     return SHARED_MESHES
+
+
+# The icosphere(3) in a 6^3 cubic lattice that the core API tests share
+# (test_lattice_basis, test_correction, test_api_input); a module may define its own.
+@pytest.fixture(scope="module")
+def sphere():
+    return vpffd.shapes.icosphere(3)
+
+
+@pytest.fixture(scope="module")
+def lat(sphere):
+    return vpffd.Lattice.around(sphere, shape=(6, 6, 6), degree=3, padding=0.05)
 
 
 def pytest_collection_modifyitems(config, items):

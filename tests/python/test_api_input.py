@@ -6,15 +6,6 @@ import vpffd
 from vpffd import InvalidInputError
 
 
-@pytest.fixture(scope="module")
-def sphere():
-    return vpffd.shapes.icosphere(3)
-
-
-@pytest.fixture(scope="module")
-def lat(sphere):
-    return vpffd.Lattice.around(sphere, shape=(6, 6, 6), degree=3, padding=0.05)
-
 
 def test_caller_arrays_untouched(sphere, lat):
     V = sphere.vertices.copy()

@@ -6,15 +6,6 @@ import vpffd
 from vpffd import InvalidInputError, SolverError
 
 
-@pytest.fixture(scope="module")
-def sphere():
-    return vpffd.shapes.icosphere(3)
-
-
-@pytest.fixture(scope="module")
-def lat(sphere):
-    return vpffd.Lattice.around(sphere, shape=(6, 6, 6), degree=3, padding=0.05)
-
 
 def test_face_matrix_is_the_papers(sphere, lat):
     d = vpffd.Deformer(sphere, lat)

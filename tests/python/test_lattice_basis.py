@@ -7,15 +7,6 @@ import vpffd
 from vpffd import InvalidInputError
 
 
-@pytest.fixture(scope="module")
-def sphere():
-    return vpffd.shapes.icosphere(3)
-
-
-@pytest.fixture(scope="module")
-def lat(sphere):
-    return vpffd.Lattice.around(sphere, shape=(6, 6, 6), degree=3, padding=0.05)
-
 
 def test_basis_partition_of_unity_and_fast_form():
     for d in range(1, 6):
