@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The C++ tests and the Python test suite under AddressSanitizer + UndefinedBehaviorSanitizer.
 #   bash scripts/sanitize.sh            C++ (ctest) and Python (pytest) suites
-#   bash scripts/sanitize.sh cpp        the C++ suite only (what CI runs)
+#   bash scripts/sanitize.sh cpp        the C++ suite and the fuzz corpus replay through the C++ readers
 #   bash scripts/sanitize.sh py [ARGS]  the Python suite only, ARGS passed to pytest
 # Needs what scripts/setup.sh installs. The sanitized Python module lives in its own
 # virtual environment (.venv-asan) and build folder, so the normal build is untouched.
