@@ -27,16 +27,21 @@ def test_every_fish_keeps_its_volume_and_the_plain_ffd_does_not(shoal):
 
 def test_the_shoal_comes_round_after_a_full_lap(shoal):
     # The ring's seam is closed: the map has period L along x, and the path wraps its
-    # offset by L, so after one whole lap every fish is where it started.
+    # offset by L, so one whole lap later every fish is where it was. t is taken inside
+    # a lap (not at 0, where the wrapped offset may land on either side of L).
     lap = shoal.lattice.box_max[0] - shoal.lattice.box_min[0]
-    t_lap = lap / shoal.path.speed
-    X0, X1 = shoal.rest_positions(0.0), shoal.rest_positions(t_lap)
+    t, t_lap = 0.3, lap / shoal.path.speed
+    X0, X1 = shoal.rest_positions(t), shoal.rest_positions(t + t_lap)
     d = vpffd.Deformer(shoal.mesh, shoal.lattice, parts="components")
+    d.set_rest_vertices(X0)
     r0 = d.deform(shoal.control_points)
     d.set_rest_vertices(X1)
     r1 = d.deform(shoal.control_points)
-    # The offset after wrapping is L - L (or a rounding of it): positions agree to a few ulps of L.
+    # Offsets speed*t and speed*(t + t_lap) - L round at most a few times by u of |o| <= 2L,
+    # and x + o once more: 8 u L bounds the difference of the rest positions.
     assert np.abs(X1 - X0).max() <= 8 * np.finfo(float).eps * lap
+    # The deformed points move by at most |J| times that (|J| = O(1) here: the ring
+    # keeps lengths, the tube scales by <= 1.3), plus the frame's own rounding.
     diag = np.linalg.norm(shoal.lattice.box_max - shoal.lattice.box_min)
     assert np.abs(r1.vertices - r0.vertices).max() <= 1e-12 * diag
     np.testing.assert_allclose(r1.part_volumes, r0.part_volumes, rtol=1e-12)

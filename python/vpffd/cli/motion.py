@@ -50,6 +50,7 @@ class MotionScene:
     duration: float             # seconds
     view: tuple
     results: dict = field(default_factory=dict)  # variant -> dict of arrays (see run_motion)
+    vertex_parts: np.ndarray = None  # (V,) part index of each vertex, set by run_motion
 
     def times(self) -> np.ndarray:
         return np.linspace(0.0, self.duration, self.frames)
@@ -74,9 +75,11 @@ def _moved(m: Mesh, shift, scale=(1.0, 1.0, 1.0)) -> Mesh:
     return Mesh(m.vertices * np.asarray(scale, dtype=np.float64) + np.asarray(shift, dtype=np.float64), m.faces)
 
 
-def shoal(quick: bool = False, n_fish: int = 4) -> MotionScene:
-    """Fish circling a ring lattice whose tube narrows and widens three times per lap."""
-    fish = shapes.fish(12, 24) if quick else shapes.fish(24, 48)
+def shoal(quick: bool = False, n_fish: int = 4, fish: Mesh = None) -> MotionScene:
+    """Fish circling a ring lattice whose tube narrows and widens three times per lap.
+    ``fish``: the creature (default ``shapes.fish``; length 1 along x, centred)."""
+    if fish is None:
+        fish = shapes.fish(12, 24) if quick else shapes.fish(24, 48)
     spacing = 1.6
     L = spacing * n_fish
     lat = Lattice((0.0, -0.36, -0.48), (L, 0.36, 0.48), shape=(12 if quick else 18, 4, 4), degree=3,
@@ -99,29 +102,30 @@ def shoal(quick: bool = False, n_fish: int = 4) -> MotionScene:
                        lat, P, path, frames, duration, (0.35, -1.0, 0.9))
 
 
-def mobius_walk(quick: bool = False, n_walkers: int = 7) -> MotionScene:
-    """Creatures walking along a Moebius band: one lap brings them back on the other side."""
+def mobius_walk(quick: bool = False, n_walkers: int = 7, walker: Mesh = None, band: bool = True) -> MotionScene:
+    """Creatures walking along a Moebius band: one lap brings them back on the other side.
+    ``walker``: the creature (default ``shapes.fish``); ``band``: include the band's slab."""
     L = 8.0
     lat = Lattice((0.0, -0.5, -0.4), (L, 0.5, 0.4), shape=(14 if quick else 20, 4, 4), degree=3,
                   periodic="x", seam="twist")
     P = edits.mobius(lat, radius=1.6)
     # The band: a thin slab on the box's mid-plane along its whole length, so that the
     # half twist closes it on itself (ends kept apart by a hair: no vertex on the seam).
-    slab = shapes.box(8 if quick else 20)
     eps = 1e-3 * L
-    band = _moved(slab, (0.5 * L, 0.0, 0.0), (L - 2 * eps, 0.9, 0.1))
-    walker = shapes.fish(10, 20) if quick else shapes.fish(16, 32)
+    slab = [_moved(shapes.box(8 if quick else 20), (0.5 * L, 0.0, 0.0), (L - 2 * eps, 0.9, 0.1))] if band else []
+    if walker is None:
+        walker = shapes.fish(10, 20) if quick else shapes.fish(16, 32)
     spacing = 0.6
     walkers = [_moved(walker, (0.6 + i * spacing, 0.0, 0.21), (0.45, 0.9, 0.5)) for i in range(n_walkers)]
-    mesh = _join([band, *walkers])
+    mesh = _join([*slab, *walkers])
     moving = np.zeros(mesh.n_vertices, bool)
-    moving[band.n_vertices:] = True
+    moving[sum(m.n_vertices for m in slab):] = True
     frames = 10 if quick else 60
     duration = 6.0
     path = PathOffset(lat, "x", speed=L / duration)  # one lap: they come back upside down
     return MotionScene("mobius_walk", f"Moebius walk: {n_walkers} walkers ({walker.n_vertices:,} vertices each) "
                        f"on a band, lattice {lat.shape[0]}x4x4 periodic with a half twist",
-                       mesh, moving, ["band", *[f"walker {i + 1}" for i in range(n_walkers)]],
+                       mesh, moving, ["band"] * band + [f"walker {i + 1}" for i in range(n_walkers)],
                        lat, P, path, frames, duration, (0.5, -0.8, 0.9))
 
 
@@ -137,6 +141,7 @@ def run_motion(scene: MotionScene, backend: str = "serial", progress=None) -> Mo
         d = Deformer(scene.mesh, scene.lattice, backend=backend, parts="components")
         if len(scene.names) != d.n_parts:
             raise AssertionError(f"{scene.key}: {d.n_parts} components, expected {len(scene.names)}")
+        scene.vertex_parts = d.vertex_parts
         V, vols, rest, secs = [], [], [], []
         for f, t in enumerate(times):
             t0 = time.perf_counter()
@@ -222,8 +227,7 @@ def render(scene: MotionScene, out: Path, size, progress=None) -> list:
     labels = {k: lab for k, lab, _ in MOTION_VARIANTS}
     pts = np.concatenate([scene.results[k]["vertices"].reshape(-1, 3) for k in keys])
     cam = fit_camera(pts[:: max(1, len(pts) // 200000)], up="z", size=(w, h), direction=scene.view)
-    d = Deformer(scene.mesh, scene.lattice, parts="components")
-    part = d.vertex_parts
+    part = scene.vertex_parts
     # One colour scale for the whole animation: the largest change of any object.
     ratio = {k: scene.results[k]["volumes"] / scene.results[k]["rest"] for k in keys}
     limit = max(1.05, float(np.exp(np.abs(np.log(ratio["plain"])).max())))
