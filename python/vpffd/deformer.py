@@ -319,7 +319,7 @@ class Deformer:
         # The CPU core keeps the rest volume, matrices, ffd() and jacobians() for both.
         self._d = self._vk.cpu if self._vk is not None else _core.Deformer(
             self.mesh.vertices, self.mesh.faces, lattice._spec, outside, self._threads, labels)
-        self._last_frame = None  # Vulkan: the arguments of the last frame kept (see on_fold)
+        self._last_frame = None  # Vulkan: (control points, options) of the last frame kept (see on_fold)
         if labels is not None:
             _check_memory(lattice.n_control_points, f"Deformer with {self._d.n_parts} parts",
                           _FRAME_BYTES_PER_CONTROL_POINT + _FRAME_BYTES_PER_CONTROL_POINT_AND_PART * self._d.n_parts,
@@ -567,16 +567,18 @@ class Deformer:
         if allow_open and preserve_volume and not self._d.is_closed:
             warnings.warn("deform: the mesh is not closed; the volume kept is that of the cone from the lattice "
                           "centre, which depends on where that centre is", stacklevel=2)
-        args = (P, bool(preserve_volume), axes, w, fx, cons, tv, method, self._threads, bool(allow_open))
-        if part_targets is not None:
-            r = self._d.deform(*args, int(rounds), part_targets=part_targets)
-        elif self._vk is not None:
-            r = self._vk.deform(*args, int(rounds), normals=bool(normals))
+        # The one place a frame's options are named; every backend takes the same object.
+        opts = _core.CorrectionOptions(preserve_volume=bool(preserve_volume), axes=axes, weights=w, fixed=fx,
+                                       constraints=cons, target_volume=tv, part_targets=part_targets,
+                                       method=method, threads=self._threads, allow_open=bool(allow_open),
+                                       rounds=int(rounds))
+        if self._vk is not None:
+            r = self._vk.deform(P, opts, normals=bool(normals))
         else:
-            r = self._d.deform(*args, int(rounds))
+            r = self._d.deform(P, opts)
         folds = _folds.check_frame(self, r["control_points"], on_fold, self._restore_last_frame)
         if self._vk is not None:
-            self._last_frame = (args, int(rounds))
+            self._last_frame = (np.array(P), opts)  # P may be a view of the caller's array
         rest = self._d.rest_volume(True) if (self._d.is_closed or allow_open) else float("nan")
         return DeformResult(
             vertices=r["vertices"],
@@ -605,11 +607,11 @@ class Deformer:
             return
         if self._last_frame is None:
             rest = np.ascontiguousarray(self.lattice.rest_points.reshape(-1, 3))
-            # The binding's defaults for everything else: a plain FFD of the rest lattice.
-            self._vk.deform(rest, preserve_volume=False, threads=self._threads, read_vertices=False)
+            plain = _core.CorrectionOptions(preserve_volume=False, threads=self._threads)
+            self._vk.deform(rest, plain, read_vertices=False)
         else:
-            args, rounds = self._last_frame
-            self._vk.deform(*args, rounds, read_vertices=False)
+            P, opts = self._last_frame
+            self._vk.deform(P, opts, read_vertices=False)
 
     def check_folds(self, control_points=None, depth: int = _folds.DEFAULT_DEPTH, threads=None):
         """Fold-over check of the lattice with ``control_points`` (default the

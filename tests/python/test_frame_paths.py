@@ -120,7 +120,7 @@ def test_frame_timings_only_when_asked():
     d = vpffd.Deformer(mesh, lat, backend="serial")
     P = vpffd.edits.squash(lat.control_points, 0.5).reshape(-1, 3)
     assert "timings" not in d._d.deform(P)
-    t = d._d.deform(P, record_timings=True)["timings"]
+    t = d._d.deform(P, vpffd._core.CorrectionOptions(record_timings=True))["timings"]
     parts = ["plan_ms", "ffd_ms", "coefficients_ms", "solves_ms", "gathers_ms", "volume_ms", "reorder_ms"]
     assert all(t[k] >= 0 for k in parts)
     assert sum(t[k] for k in parts) <= t["total_ms"] * (1 + 1e-9)

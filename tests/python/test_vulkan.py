@@ -339,14 +339,15 @@ def test_threads_get_their_own_frames(sphere):
     mesh, lat, cpu, gpu = sphere
     Ps = [np.ascontiguousarray(f * edit(lat).reshape(-1, 3)) for f in (1.0, 1.1)]
     kws = [dict(), dict(preserve_volume=False)]  # two shapes: no shared recording either
-    want = [gpu._vk.deform(P, **kw)["vertices"] for P, kw in zip(Ps, kws)]
+    want = [gpu._vk.deform(P, vpffd._core.CorrectionOptions(**kw))["vertices"] for P, kw in zip(Ps, kws)]
     assert not np.array_equal(want[0], want[1])
+    opts = [vpffd._core.CorrectionOptions(**kw) for kw in kws]
     bad, errors = [], []
 
     def run(i):
         try:
             for _ in range(500):
-                if not np.array_equal(gpu._vk.deform(Ps[i], **kws[i])["vertices"], want[i]):
+                if not np.array_equal(gpu._vk.deform(Ps[i], opts[i])["vertices"], want[i]):
                     bad.append(i)
                 t = gpu.last_timings()
                 assert t["host_total_ms"] > 0 and len(t["gpu_steps_ms"]) in (0, 1, 3)

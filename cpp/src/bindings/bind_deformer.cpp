@@ -3,6 +3,9 @@
 #include <optional>
 
 #include "common.h"
+#include "vpffd/frame/deformer.h"
+#include "vpffd/mesh/parts.h"
+#include "vpffd/mesh/validate.h"
 
 namespace vpffd::bindings {
 
@@ -120,15 +123,7 @@ void bind_deformer(py::module_& m) {
           py::arg("vertices"), py::arg("axis"), py::arg("method") = "traversal", py::arg("threads") = 0)
       .def(
           "deform",
-          [](const Deformer& d, RefV P, bool preserve_volume, const std::string& axes,
-             std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
-             const PyConstraints& constraints,
-             std::optional<double> target_volume, const std::string& method, int threads, bool allow_open, int rounds,
-             bool record_timings, std::optional<std::vector<double>> part_targets) {
-            CorrectionOptions o = make_options(preserve_volume, axes, std::move(weights), std::move(fixed),
-                                               constraints, target_volume, method, threads, allow_open, rounds);
-            o.record_timings = record_timings;
-            if (part_targets) o.part_targets = std::move(*part_targets);
+          [](const Deformer& d, RefV P, const CorrectionOptions& o) {
             DeformResult r;
             {
               py::gil_scoped_release release;
@@ -136,12 +131,9 @@ void bind_deformer(py::module_& m) {
             }
             return result_to_python(std::move(r));
           },
-          py::arg("control_points"), py::arg("preserve_volume") = true, py::arg("axes") = "xyz",
-          py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
-          py::arg("constraints") = PyConstraints{},
-          py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0,
-          py::arg("allow_open") = false, py::arg("rounds") = 1, py::arg("record_timings") = false,
-          py::arg("part_targets") = py::none());
+          py::arg("control_points"), py::arg("options") = CorrectionOptions(),
+          "One frame (vpffd::Deformer::deform): the result as a dict (vertices, control_points, offsets, volumes, "
+          "steps, [part volumes], [timings]).");
 }
 
 }  // namespace vpffd::bindings

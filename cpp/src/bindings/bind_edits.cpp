@@ -1,6 +1,7 @@
 // Ready-made control point edits (radians here; the Python layer takes degrees).
 
 #include "common.h"
+#include "vpffd/edits/lattice_edits.h"
 
 namespace vpffd::bindings {
 

@@ -1,6 +1,13 @@
 // Lattice structure, knots, basis functions and the plain FFD of points.
 
 #include "common.h"
+#include "vpffd/bspline/basis.h"
+#include "vpffd/bspline/knots.h"
+#include "vpffd/ffd/basis_matrix.h"
+#include "vpffd/ffd/points.h"
+#include "vpffd/lattice/embed.h"
+#include "vpffd/lattice/lattice.h"
+#include "vpffd/lattice/periodic.h"
 
 namespace vpffd::bindings {
 

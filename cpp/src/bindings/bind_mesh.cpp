@@ -1,6 +1,9 @@
 // Mesh checks, volume and the built-in shapes.
 
 #include "common.h"
+#include "vpffd/mesh/shapes.h"
+#include "vpffd/mesh/validate.h"
+#include "vpffd/mesh/volume.h"
 
 namespace vpffd::bindings {
 

@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "common.h"
+#include "vpffd/frame/deformer.h"
 #include "vpffd/backend/vulkan.h"
 
 namespace vpffd::bindings {
@@ -95,13 +96,7 @@ void bind_vulkan(py::module_& m) {
                              })
       .def(
           "deform",
-          [](VulkanDeformer& d, RefV P, bool preserve_volume, const std::string& axes,
-             std::optional<Eigen::VectorXd> weights, std::optional<std::vector<std::uint8_t>> fixed,
-             const PyConstraints& constraints,
-             std::optional<double> target_volume, const std::string& method, int threads, bool allow_open,
-             int rounds, bool read_vertices, bool normals) {
-            const CorrectionOptions o = make_options(preserve_volume, axes, std::move(weights), std::move(fixed),
-                                                     constraints, target_volume, method, threads, allow_open, rounds);
+          [](VulkanDeformer& d, RefV P, const CorrectionOptions& o, bool read_vertices, bool normals) {
             DeformResult r;
             RowMatrixX3d N;
             {
@@ -112,14 +107,11 @@ void bind_vulkan(py::module_& m) {
             if (normals) out["normals"] = py::cast(std::move(N));
             return out;
           },
-          py::arg("control_points"), py::arg("preserve_volume") = true, py::arg("axes") = "xyz",
-          py::arg("weights") = py::none(), py::arg("fixed") = py::none(),
-          py::arg("constraints") = PyConstraints{},
-          py::arg("target_volume") = py::none(), py::arg("method") = "traversal", py::arg("threads") = 0,
-          py::arg("allow_open") = false, py::arg("rounds") = 1, py::arg("read_vertices") = true,
+          py::arg("control_points"), py::arg("options") = CorrectionOptions(), py::arg("read_vertices") = true,
           py::arg("normals") = false,
-          "One frame (see vpffd::vulkan::VulkanDeformer::deform). normals=True adds 'normals': the (V, 3) "
-          "unit normals of the deformed surface, computed on the device in the same submission.");
+          "One frame (see vpffd::vulkan::VulkanDeformer::deform), the options as for Deformer.deform. normals=True "
+          "adds 'normals': the (V, 3) unit normals of the deformed surface, computed on the device in the same "
+          "submission.");
 }
 
 }  // namespace vpffd::bindings

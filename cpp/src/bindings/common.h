@@ -4,13 +4,16 @@
 // layer has already converted and validated them, so no hidden copy happens here.
 
 #include <optional>
+#include <tuple>
+#include <vector>
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include "vpffd/vpffd.h"
+#include "vpffd/correction/options.h"
+#include "vpffd/sparse/csr.h"
 
 namespace py = pybind11;
 
@@ -73,28 +76,10 @@ inline py::dict result_to_python(DeformResult&& r) {
   return d;
 }
 
-/// The keyword arguments of every backend's deform(), as Python passes them.
+/// Point constraints as Python passes them: (vertex or -1, rest-space point, target).
 using PyConstraints = std::vector<std::tuple<Index, Vector3d, Vector3d>>;
 
-inline CorrectionOptions make_options(bool preserve_volume, const std::string& axes,
-                                      std::optional<Eigen::VectorXd> weights,
-                                      std::optional<std::vector<std::uint8_t>> fixed, const PyConstraints& constraints,
-                                      std::optional<double> target_volume, const std::string& method, int threads,
-                                      bool allow_open, int rounds) {
-  CorrectionOptions o;
-  o.preserve_volume = preserve_volume;
-  o.axes = parse_axes(axes);
-  if (weights) o.weights = std::move(*weights);
-  if (fixed) o.fixed = std::move(*fixed);
-  for (const auto& [v, p, t] : constraints) o.constraints.push_back({v, p, t});
-  if (target_volume) o.target_volume = *target_volume;
-  o.method = parse_method(method);
-  o.threads = threads;
-  o.allow_open = allow_open;
-  o.rounds = rounds;
-  return o;
-}
-
+void bind_options(py::module_& m);  // bind_options.cpp: CorrectionOptions, the options of every deform()
 void bind_lattice(py::module_& m);
 void bind_mesh(py::module_& m);
 void bind_deformer(py::module_& m);

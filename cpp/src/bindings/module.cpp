@@ -2,6 +2,7 @@
 // with numpy-friendly classes; this layer stays thin.
 
 #include "common.h"
+#include "vpffd/core/parallel.h"
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "vpffd C++ core: volume-preserving B-spline free-form deformation";
@@ -16,6 +17,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("has_openmp", &vpffd::has_openmp, "True when the CPU kernels were compiled with OpenMP.");
   m.def("max_threads", [] { return vpffd::resolve_threads(0); }, "Threads the OpenMP backend uses by default.");
 
+  vpffd::bindings::bind_options(m);  // first: deform() takes its type as a default
   vpffd::bindings::bind_lattice(m);
   vpffd::bindings::bind_mesh(m);
   vpffd::bindings::bind_deformer(m);

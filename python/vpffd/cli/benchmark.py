@@ -53,7 +53,8 @@ def frame_breakdown(d: Deformer, P, repeats: int, axes: str = "xyz", method: str
     fields at the vertices (the last fused with the volume and the reordering),
     volume = separate volume passes, reorder = the copy to the caller's vertex order."""
     Pf = d._P(P)
-    runs = [d._d.deform(Pf, axes=axes, method=method, threads=d._threads, record_timings=True)["timings"]
+    opts = _core.CorrectionOptions(axes=axes, method=method, threads=d._threads, record_timings=True)
+    runs = [d._d.deform(Pf, opts)["timings"]
             for _ in range(repeats + 1)][1:]
     return {k: float(np.median([r[k + "_ms"] for r in runs])) for k in (*PASSES, "total")}
 

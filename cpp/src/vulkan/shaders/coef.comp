@@ -13,13 +13,13 @@
 // (and float64 atomics are rare); devices may still differ in how they fuse the
 // float32 basis arithmetic.
 #include "common.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = VPFFD_TILE) in;
 
-shared real s_w[64];
-shared real s_vol[64];
-shared float s_bu[64 * KMAX];
-shared float s_bv[64 * KMAX];
-shared float s_bw[64 * KMAX];
+shared real s_w[VPFFD_TILE];
+shared real s_vol[VPFFD_TILE];
+shared float s_bu[VPFFD_TILE * KMAX];
+shared float s_bv[VPFFD_TILE * KMAX];
+shared float s_bw[VPFFD_TILE * KMAX];
 
 void main() {
   const int a = pc.axis;
@@ -55,7 +55,7 @@ void main() {
     s_w[l] = w;
     s_vol[l] = vol;
     barrier();
-    for (int o = int(l); o < KKK; o += 64) {
+    for (int o = int(l); o < KKK; o += VPFFD_TILE) {
       const int i = o / (KV * KW), j = (o / KW) % KV, k = o % KW;
       real s = r_zero();
       for (int q = 0; q < tile.y; ++q)

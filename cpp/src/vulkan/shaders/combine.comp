@@ -1,7 +1,7 @@
 #version 450
 // alpha[c] = sum of the tile partials that touch control point c, in tile order.
 #include "common.glsl"
-layout(local_size_x = 256) in;
+layout(local_size_x = VPFFD_GROUP) in;
 
 void main() {
   const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;

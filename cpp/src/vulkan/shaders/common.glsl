@@ -14,6 +14,7 @@
 
 #extension GL_GOOGLE_include_directive : require
 #include "real.glsl"
+#include "layout.h"  // bindings, workgroup sizes, buffer offsets (shared with the C++ side)
 
 #define KMAX 6  // order (degree + 1) of a degree-5 spline
 
@@ -43,52 +44,38 @@ layout(push_constant) uniform Push {
   int count;  // unused (keeps the block's layout)
 } pc;
 
-layout(std430, set = 0, binding = 0) readonly buffer BufP { float P[]; };       // 3N, relative to the origin
-layout(std430, set = 0, binding = 1) buffer BufX { float X[]; };                // 3V, relative to the origin
-layout(std430, set = 0, binding = 2) readonly buffer BufF { int F[]; };         // 3F, sorted numbering
-layout(std430, set = 0, binding = 3) readonly buffer BufAdjPtr { int adj_ptr[]; };
-layout(std430, set = 0, binding = 4) readonly buffer BufAdj { int adj_face[]; };
-layout(std430, set = 0, binding = 5) readonly buffer BufSpan { int span[]; };   // 3V: first control index per axis
-layout(std430, set = 0, binding = 6) readonly buffer BufTau { float tau[]; };   // 3V
-layout(std430, set = 0, binding = 7) readonly buffer BufPoly { float poly[]; };
-layout(std430, set = 0, binding = 8) readonly buffer BufTile { ivec4 tiles[]; };  // start, count, first cp, -
-layout(std430, set = 0, binding = 9) buffer BufPart { real partial[]; };       // NTILE x KKK
-layout(std430, set = 0, binding = 10) buffer BufTileVol { real tile_vol[]; };  // NTILE
-layout(std430, set = 0, binding = 11) readonly buffer BufCombPtr { int comb_ptr[]; };
-layout(std430, set = 0, binding = 12) readonly buffer BufComb { int comb_idx[]; };
-layout(std430, set = 0, binding = 13) buffer BufAlpha { real alpha[]; };       // N
-layout(std430, set = 0, binding = 14) readonly buffer BufInvW { real inv_w[]; };  // N, 0 = fixed
-layout(std430, set = 0, binding = 15) buffer BufDelta { real delta[]; };  // 4N: 3 accumulated axes, this step's
-// Frame parameters (see vulkan_deformer.cpp, the FR_/CI_/ST_ constants): reals.
-layout(std430, set = 0, binding = 16) readonly buffer BufFrame { real frame[]; };
+layout(std430, set = 0, binding = VPFFD_B_P) readonly buffer BufP { float P[]; };       // 3N, relative to the origin
+layout(std430, set = 0, binding = VPFFD_B_X) buffer BufX { float X[]; };                // 3V, relative to the origin
+layout(std430, set = 0, binding = VPFFD_B_F) readonly buffer BufF { int F[]; };         // 3F, sorted numbering
+layout(std430, set = 0, binding = VPFFD_B_ADJ_PTR) readonly buffer BufAdjPtr { int adj_ptr[]; };
+layout(std430, set = 0, binding = VPFFD_B_ADJ) readonly buffer BufAdj { int adj_face[]; };
+layout(std430, set = 0, binding = VPFFD_B_SPAN) readonly buffer BufSpan { int span[]; };   // 3V: first control index per axis
+layout(std430, set = 0, binding = VPFFD_B_TAU) readonly buffer BufTau { float tau[]; };   // 3V
+layout(std430, set = 0, binding = VPFFD_B_POLY) readonly buffer BufPoly { float poly[]; };
+layout(std430, set = 0, binding = VPFFD_B_TILES) readonly buffer BufTile { ivec4 tiles[]; };  // start, count, first cp, -
+layout(std430, set = 0, binding = VPFFD_B_PARTIAL) buffer BufPart { real partial[]; };       // NTILE x KKK
+layout(std430, set = 0, binding = VPFFD_B_TILE_VOL) buffer BufTileVol { real tile_vol[]; };  // NTILE
+layout(std430, set = 0, binding = VPFFD_B_COMB_PTR) readonly buffer BufCombPtr { int comb_ptr[]; };
+layout(std430, set = 0, binding = VPFFD_B_COMB) readonly buffer BufComb { int comb_idx[]; };
+layout(std430, set = 0, binding = VPFFD_B_ALPHA) buffer BufAlpha { real alpha[]; };       // N
+layout(std430, set = 0, binding = VPFFD_B_INV_W) readonly buffer BufInvW { real inv_w[]; };  // N, 0 = fixed
+layout(std430, set = 0, binding = VPFFD_B_DELTA) buffer BufDelta { real delta[]; };  // 4N: 3 accumulated axes, this step's
+// Frame parameters (the FR_/CI_/ST_ offsets of layout.h): reals.
+layout(std430, set = 0, binding = VPFFD_B_FRAME) readonly buffer BufFrame { real frame[]; };
 // The point constraints' block: uploaded when the constraint sources or the
 // weights change, not per frame.
-layout(std430, set = 0, binding = 17) readonly buffer BufConsI { int cons_i[]; };
-layout(std430, set = 0, binding = 18) buffer BufStats { real stats[]; };
-layout(std430, set = 0, binding = 19) buffer BufRed { real red[]; };  // per-workgroup volume partials
-layout(std430, set = 0, binding = 20) readonly buffer BufConsD { real cons_d[]; };
+layout(std430, set = 0, binding = VPFFD_B_CONS_I) readonly buffer BufConsI { int cons_i[]; };
+layout(std430, set = 0, binding = VPFFD_B_STATS) buffer BufStats { real stats[]; };
+layout(std430, set = 0, binding = VPFFD_B_RED) buffer BufRed { real red[]; };  // per-workgroup volume partials
+layout(std430, set = 0, binding = VPFFD_B_CONS_D) readonly buffer BufConsD { real cons_d[]; };
 // Scratch vectors of the solve workgroup; coherent: its invocations exchange them.
-layout(std430, set = 0, binding = 21) coherent buffer BufWork { real work[]; };
+layout(std430, set = 0, binding = VPFFD_B_WORK) coherent buffer BufWork { real work[]; };
 // normals.comp: the rest vertex normals (3V, unit, uploaded once) and the deformed ones (3V).
-layout(std430, set = 0, binding = 22) readonly buffer BufNrm0 { float nrm0[]; };
-layout(std430, set = 0, binding = 23) writeonly buffer BufNrm { float nrm[]; };
+layout(std430, set = 0, binding = VPFFD_B_NRM0) readonly buffer BufNrm0 { float nrm0[]; };
+layout(std430, set = 0, binding = VPFFD_B_NRM) writeonly buffer BufNrm { float nrm[]; };
 // normals.comp: `poly` in reals (same layout), then per axis and span d tau / d y.
-layout(std430, set = 0, binding = 24) readonly buffer BufNrmTab { real nrm_tab[]; };
+layout(std430, set = 0, binding = VPFFD_B_NRM_TAB) readonly buffer BufNrmTab { real nrm_tab[]; };
 
-// Layouts, mirrored in vulkan_deformer.cpp.
-const int RED_STRIDE = 1024;       // = the most workgroups of a grid-stride pass
-const int FR_TARGET = 0;
-const int FR_MAX_INVW = 1;
-const int FR_HI = 2;               // largest eigenvalue of the unit-diagonal constraint block (>= 1)
-const int FR_RHS = 8;              // 3 x nc, axis-major: target - B(u_s) . P along the axis
-const int CI_NC = 0;
-const int CI_PTR = 1;              // offset of the per-control-point lists (N + 1 entries)
-const int CI_IDX = 2;              // offset of their entries: s * KKK + local index into cons_d
-const int CI_G = 3;                // offset in cons_d of G_cc = R W^-1 R^T (nc x nc)
-const int CI_H = 4;                // offset in cons_d of G_cc^-1 (nc x nc)
-const int CI_BASE = 8;             // nc first control point indices; cons_d starts with nc x KKK row values
-const int ST_STEP = 0;             // per step: volume_before, share, sum_squares, max_offset, status, detail
-const int ST_STEP_STRIDE = 8;
 
 // Basis values of one axis at local parameter t: Horner on the span's power form
 // (the core's layout: coefficient of tau^q of function r at [q][r]).

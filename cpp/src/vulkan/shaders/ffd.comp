@@ -1,7 +1,7 @@
 #version 450
 // Plain FFD of every vertex (eq. 1): X = sum_ijk B_i(u) B_j(v) B_k(w) P_ijk.
 #include "common.glsl"
-layout(local_size_x = 256) in;
+layout(local_size_x = VPFFD_GROUP) in;
 
 void main() {
   const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;

@@ -5,7 +5,7 @@
 // formed exactly as in `coef` (b3), so the volume change is alpha . delta up to
 // the float32 rounding of X.
 #include "common.glsl"
-layout(local_size_x = 256) in;
+layout(local_size_x = VPFFD_GROUP) in;
 
 void main() {
   const int a = pc.axis;

@@ -22,7 +22,7 @@
 // (tests/python/gpu_bounds.py, normal_angle_bound). 3 K^2 real operations per vertex,
 // against the K^3 float32 ones of the Jacobian.
 #include "common.glsl"
-layout(local_size_x = 256) in;
+layout(local_size_x = VPFFD_GROUP) in;
 
 // Values b and derivatives db (d/dy: d/dtau times the span's scale `s`) of one axis's
 // K functions at local parameter t, evaluated in reals and rounded once.

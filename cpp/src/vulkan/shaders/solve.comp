@@ -18,8 +18,8 @@
 // minus B(u_s) . the offsets of earlier steps), so later rounds only correct rounding.
 // Failures are written as a status the host turns into the CPU's SolverError.
 #include "common.glsl"
-layout(local_size_x = 256) in;
-const int WG = 256;
+layout(local_size_x = VPFFD_GROUP) in;
+const int WG = VPFFD_GROUP;
 
 shared real s_a[WG];
 shared real s_b[WG];

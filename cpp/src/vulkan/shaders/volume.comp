@@ -4,8 +4,8 @@
 // `red`. The host adds the (at most RED_STRIDE) partials in a fixed order: a
 // one-workgroup reduce pass would cost a dispatch and a barrier for 1024 additions.
 #include "common.glsl"
-layout(local_size_x = 256) in;
-shared real s_sum[256];
+layout(local_size_x = VPFFD_GROUP) in;
+shared real s_sum[VPFFD_GROUP];
 
 void main() {
   const uint l = gl_LocalInvocationID.x;

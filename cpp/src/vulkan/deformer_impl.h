@@ -1,0 +1,362 @@
+#pragma once
+// The state of a VulkanDeformer (private to the backend): the device buffers, the
+// pipelines, the recorded frames and the command helpers every part of the backend
+// uses. The parts: setup.cpp (buffers, uploads, pipelines), constraint_block.cpp (the
+// point constraints' block), frame_recorder.cpp (a frame's command buffer) and
+// vulkan_deformer.cpp (the public API and a frame's host side).
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "context.h"
+#include "shaders/layout.h"
+#include "vk_handle.h"
+#include "vpffd/backend/vulkan.h"
+#include "vpffd/ffd/normals.h"
+#include "vpffd/shaders/pipes.h"
+
+namespace vpffd::vulkan {
+
+namespace detail {
+
+// Device reals (shaders/real.glsl): a double, or a float pair (hi, lo) with value
+// hi + lo, in the same 8 bytes.
+inline void put_reals(void* dst, const double* src, size_t n, bool ff) {
+  if (!ff) {
+    std::memcpy(dst, src, 8 * n);
+    return;
+  }
+  float* f = static_cast<float*>(dst);
+  for (size_t i = 0; i < n; ++i) {
+    const float hi = static_cast<float>(src[i]);
+    f[2 * i] = hi;
+    f[2 * i + 1] = static_cast<float>(src[i] - double(hi));
+  }
+}
+inline double get_real(const void* src, size_t i, bool ff) {
+  if (!ff) return static_cast<const double*>(src)[i];
+  const float* f = static_cast<const float*>(src);
+  return double(f[2 * i]) + double(f[2 * i + 1]);
+}
+
+constexpr int kMaxSteps = 3 * kMaxRounds;  // distinct axes (Deformer::plan checks) x rounds
+constexpr int ST_SIZE = kMaxSteps * ST_STEP_STRIDE;
+constexpr int kTile = VPFFD_TILE;
+constexpr int kGroup = VPFFD_GROUP;
+constexpr std::uint32_t kMaxGroups = VPFFD_RED_STRIDE;
+constexpr std::uint32_t kQueries = 3 + kMaxSteps;
+constexpr size_t kMaxRecorded = 4;  // frame command buffers kept, one per options shape
+
+// The push constants: the `Push` block of shaders/common.glsl, field by field.
+struct Push {
+  std::int32_t axis = 0, step = 0, left = 1, flags = 0, slot = 0, count = 0;
+};
+static_assert(sizeof(Push) == 6 * 4, "Push mirrors the push_constant block of common.glsl");
+
+inline std::uint32_t groups_for(std::int64_t n, std::uint32_t cap) {
+  return static_cast<std::uint32_t>(std::clamp<std::int64_t>((n + kGroup - 1) / kGroup, 1, cap));
+}
+
+inline double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// What the device does in a frame, apart from the data: equal shapes share one recording.
+struct Shape {
+  enum Mode { Plain, DeviceSteps, HostOffsets };
+  Mode mode = Plain;
+  bool measure = false;      // closed mesh or allow_open: volumes are measured
+  bool open = false;         // cone weights in coef
+  bool normals = false;      // the deformed vertex normals, read back with the frame
+  std::vector<int> axes;     // DeviceSteps: the axis of every step; HostOffsets: the axes to apply
+  bool operator==(const Shape& o) const {
+    return mode == o.mode && measure == o.measure && open == o.open && normals == o.normals && axes == o.axes;
+  }
+};
+
+}  // namespace detail
+
+using detail::kBindings;
+using detail::Push;
+using detail::Shape;
+using detail::kGroup;
+using detail::kMaxGroups;
+using detail::kMaxRecorded;
+using detail::kMaxSteps;
+using detail::kQueries;
+using detail::kTile;
+using detail::ST_SIZE;
+
+struct VulkanDeformer::Impl {
+  using Buffer = detail::Buffer;
+  std::shared_ptr<detail::Device> dev;  // first: destroyed last
+  std::unique_ptr<Deformer> cpu;
+  VkDevice d = VK_NULL_HANDLE;
+  Precision precision = Precision::Float64;
+  bool ff = false;  // float-float reals on the device
+
+  Index nv = 0, nf = 0, N = 0, n_tiles = 0;
+  int KKK = 0;
+  std::uint32_t g_vert = 1, g_face = 1, g_cp = 1, g_tile = 1;
+  Vector3d origin;
+  double scale = 1.0;  // device lengths = world lengths / scale (a power of two)
+
+  // The device buffers, by their binding numbers (shaders/layout.h).
+  enum Buf {
+    bP = VPFFD_B_P, bX = VPFFD_B_X, bF = VPFFD_B_F, bAdjPtr = VPFFD_B_ADJ_PTR, bAdj = VPFFD_B_ADJ,
+    bSpan = VPFFD_B_SPAN, bTau = VPFFD_B_TAU, bPoly = VPFFD_B_POLY, bTiles = VPFFD_B_TILES,
+    bPartial = VPFFD_B_PARTIAL, bTileVol = VPFFD_B_TILE_VOL, bCombPtr = VPFFD_B_COMB_PTR, bComb = VPFFD_B_COMB,
+    bAlpha = VPFFD_B_ALPHA, bInvW = VPFFD_B_INV_W, bDelta = VPFFD_B_DELTA, bFrame = VPFFD_B_FRAME,
+    bConsI = VPFFD_B_CONS_I, bStats = VPFFD_B_STATS, bRed = VPFFD_B_RED, bConsD = VPFFD_B_CONS_D,
+    bWork = VPFFD_B_WORK, bNrm0 = VPFFD_B_NRM0, bNrm = VPFFD_B_NRM, bNrmTab = VPFFD_B_NRM_TAB,
+    kNumBuf = VPFFD_B_COUNT
+  };
+  static_assert(kNumBuf == int(kBindings), "one binding per device buffer");
+  Buffer buf[kNumBuf];
+  Buffer up_P, up_invw, up_frame, up_delta, up_cons_i, up_cons_d, rb_delta, rb_stats, rb_red, rb_X, rb_N;
+  Buffer up_n0;  // staging of the rest normals, released after their upload
+  bool normals_ready = false;  // the rest normals are on the device (a submission ran)
+  // The vertices before the frame now running: a frame whose failure is only known
+  // after it ran (see deform) puts them back, so a failed frame never becomes visible.
+  Buffer x_good;
+
+  // Declared after `dev` and destroyed before it, in reverse order; the destructor
+  // first waits for a submission still running.
+  Owned<VkDescriptorSetLayout> dsl;
+  Owned<VkPipelineLayout> layout;
+  Owned<VkDescriptorPool> pool;
+  VkDescriptorSet set = VK_NULL_HANDLE;  // freed with the pool
+  Owned<VkShaderModule> modules[kPipes];
+  Owned<VkPipeline> pipes[kPipes];
+  Owned<VkCommandPool> cmd_pool;  // frees the command buffers below
+  VkCommandBuffer cmd = VK_NULL_HANDLE;  // one-time work: uploads, restores
+  // Copies the device vertices to rb_X; recorded once, submitted after a frame in the
+  // same vkQueueSubmit (no second wait per frame) or alone by vertices().
+  VkCommandBuffer readback_cb = VK_NULL_HANDLE;
+  Owned<VkFence> fence;
+  Owned<VkQueryPool> queries;
+
+  struct Recorded {
+    Shape shape;
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    std::uint32_t n_steps = 0;  // timestamped steps
+    std::uint64_t last_use = 0;
+  };
+  std::vector<Recorded> recorded;
+  std::uint64_t frames = 0;
+
+  // The point constraints' block on the device (see solve.comp), kept while the
+  // constraint sources and the weights stay the same.
+  struct ConsBlock {
+    bool valid = false;
+    std::vector<std::int32_t> index;  // nc x KKK control point indices of the rows
+    std::vector<double> value;        // nc x KKK basis values
+    VectorXd inv_weight;
+    bool bad = false;  // a row that cannot move or dependent rows: the CPU's error applies
+    double hi = 1.0;   // largest eigenvalue of the unit-diagonal block (at least 1)
+  } cons;
+
+  std::mutex frame_mutex;  // one frame or read-back at a time per deformer
+  bool pending = false;    // a submission whose fence was not waited for (after an error)
+  VectorXd invw_uploaded;  // inverse weights on the device (empty: none yet)
+  FrameTimings timings;    // of the last frame that ran on the device (guarded by frame_mutex)
+
+  ~Impl() {
+    // The handles go with the members; a submission must not outlive them.
+    if (d && pending) vkWaitForFences(d, 1, &fence.get(), VK_TRUE, UINT64_MAX);
+  }
+
+  // ---- command helpers --------------------------------------------------------
+  // A submission whose wait failed may still run: its command buffers and the fence
+  // must not be reused before it ends.
+  void settle() {
+    if (!pending) return;
+    const VkResult r = vkWaitForFences(d, 1, &fence.get(), VK_TRUE, 600ull * 1000 * 1000 * 1000);
+    if (r == VK_TIMEOUT) throw DeviceError("vulkan: an earlier submission is still running after 600 s (device hung?)");
+    detail::check(r, "vkWaitForFences");
+    pending = false;
+    detail::check(vkResetFences(d, 1, &fence.get()), "vkResetFences");
+  }
+
+  void begin(VkCommandBuffer cb, bool once) {
+    settle();
+    detail::check(vkResetCommandBuffer(cb, 0), "vkResetCommandBuffer");
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = once ? VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT : 0;
+    detail::check(vkBeginCommandBuffer(cb, &bi), "vkBeginCommandBuffer");
+  }
+  void begin() { begin(cmd, true); }
+
+  // Submits `cbs` (in order, one vkQueueSubmit) and waits.
+  void submit_and_wait(const VkCommandBuffer* cbs, std::uint32_t n) {
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = n;
+    si.pCommandBuffers = cbs;
+    {
+      std::lock_guard<std::mutex> lock(dev->queue_mutex);
+      detail::check(vkQueueSubmit(dev->queue, 1, &si, fence.get()), "vkQueueSubmit");
+    }
+    pending = true;
+    // Generous: lavapipe on a big mesh is slow, but a hung device must not hang the caller.
+    const VkResult r = vkWaitForFences(d, 1, &fence.get(), VK_TRUE, 600ull * 1000 * 1000 * 1000);
+    if (r == VK_TIMEOUT) throw DeviceError("vulkan: vkWaitForFences timed out after 600 s (device hung?)");
+    detail::check(r, "vkWaitForFences");
+    pending = false;
+    detail::check(vkResetFences(d, 1, &fence.get()), "vkResetFences");
+  }
+  void submit_and_wait() {
+    detail::check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+    submit_and_wait(&cmd, 1);
+  }
+
+  // Everything before is visible to everything after (compute and transfer).
+  static void barrier(VkCommandBuffer cb) {
+    VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+    mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
+                       VK_ACCESS_TRANSFER_WRITE_BIT;
+    const VkPipelineStageFlags st = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT;
+    vkCmdPipelineBarrier(cb, st, st, 0, 1, &mb, 0, nullptr, 0, nullptr);
+  }
+
+  // Copies to read-back buffers are visible to the host once the fence signals.
+  static void host_barrier(VkCommandBuffer cb) {
+    VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    mb.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    mb.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &mb, 0, nullptr, 0,
+                         nullptr);
+  }
+
+  void dispatch(VkCommandBuffer cb, Pipe p, std::uint32_t groups, const Push& pc) {
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipes[p].get());
+    vkCmdPushConstants(cb, layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &pc);
+    vkCmdDispatch(cb, groups, 1, 1);
+    barrier(cb);
+  }
+
+  static void copy(VkCommandBuffer cb, const Buffer& src, const Buffer& dst, VkDeviceSize bytes,
+                   VkDeviceSize src_offset = 0, VkDeviceSize dst_offset = 0) {
+    if (bytes == 0) return;
+    VkBufferCopy c{src_offset, dst_offset, bytes};
+    vkCmdCopyBuffer(cb, src.handle(), dst.handle(), 1, &c);
+  }
+  void copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes) { copy(cmd, src, dst, bytes); }
+
+  void timestamp(VkCommandBuffer cb, std::uint32_t i) {
+    if (dev->timestamps) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries.get(), i);
+  }
+
+  // Binding i now names buf[i]: recorded frames referred to the old set contents.
+  void bind(int i) {
+    VkDescriptorBufferInfo info{buf[i].handle(), 0, VK_WHOLE_SIZE};
+    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    w.dstSet = set;
+    w.dstBinding = static_cast<std::uint32_t>(i);
+    w.descriptorCount = 1;
+    w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    w.pBufferInfo = &info;
+    vkUpdateDescriptorSets(d, 1, &w, 0, nullptr);
+    forget_recordings();
+  }
+
+  void forget_recordings() {
+    for (Recorded& r : recorded) vkFreeCommandBuffers(d, cmd_pool.get(), 1, &r.cb);
+    recorded.clear();
+  }
+
+  // Device buffer i (and its upload buffer, when given) hold at least `bytes`.
+  void reserve(Buf i, Buffer* up, size_t bytes, const char* what) {
+    if (buf[i].handle() && buf[i].size() >= bytes) return;
+    const size_t cap = std::max<size_t>(bytes, 2 * buf[i].size());
+    buf[i] = Buffer(*dev, cap, Buffer::DeviceLocal, what);
+    if (up) *up = Buffer(*dev, cap, Buffer::Upload, what);
+    if (set) bind(i);
+  }
+
+  // ---- set-up ------------------------------------------------------------------
+  void build(const std::string& selector, Precision wanted);
+  void create_pipelines(const std::array<std::int32_t, 11>& spec);
+
+  // ---- frames (all with frame_mutex held) -----------------------------------------
+  VkCommandBuffer readback() {
+    if (readback_cb) return readback_cb;
+    rb_X = Buffer(*dev, 12 * nv, Buffer::Readback, "vertices (read-back)");
+    VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    cai.commandPool = cmd_pool.get();
+    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cai.commandBufferCount = 1;
+    detail::check(vkAllocateCommandBuffers(d, &cai, &readback_cb), "vkAllocateCommandBuffers");
+    begin(readback_cb, false);
+    barrier(readback_cb);
+    copy(readback_cb, buf[bX], rb_X, 12 * nv);
+    host_barrier(readback_cb);
+    detail::check(vkEndCommandBuffer(readback_cb), "vkEndCommandBuffer");
+    return readback_cb;
+  }
+
+  // #V x 3 device vertices in the input order (runs readback() alone).
+  RowMatrixX3d read_vertices() {
+    const VkCommandBuffer cb = readback();
+    submit_and_wait(&cb, 1);
+    return unpack_vertices();
+  }
+
+  // rb_X, filled by readback(), in the input order and world units.
+  RowMatrixX3d unpack_vertices() const {
+    const float* x = static_cast<const float*>(rb_X.mapped());
+    RowMatrixX3d out(nv, 3);
+    const std::vector<std::int32_t>& order = cpu->processing_order();  // device vertex i is input order[i]
+    for (Index i = 0; i < nv; ++i)
+      for (int a = 0; a < 3; ++a) out(order[i], a) = double(x[3 * i + a]) * scale + origin[a];
+    return out;
+  }
+
+  // rb_N, filled by a frame with normals, in the input order.
+  RowMatrixX3d unpack_normals() const {
+    const float* x = static_cast<const float*>(rb_N.mapped());
+    RowMatrixX3d out(nv, 3);
+    const std::vector<std::int32_t>& order = cpu->processing_order();
+    for (Index i = 0; i < nv; ++i)
+      for (int a = 0; a < 3; ++a) out(order[i], a) = double(x[3 * i + a]);
+    return out;
+  }
+
+  // After a frame with device steps failed: its vertices back to those before it.
+  void restore_vertices() {
+    begin();
+    barrier(cmd);
+    copy(x_good, buf[bX], 12 * nv);
+    barrier(cmd);
+    submit_and_wait();
+  }
+
+  // The first frame with normals: their buffers, and the rest normals uploaded (into
+  // `cmd`, begun) as deformed_normals uses them (vertex_normals of the rest mesh), in
+  // the device order. Returns whether `cmd` got work.
+  bool prepare_normals() {
+    if (normals_ready) return false;
+    reserve(bNrm0, &up_n0, 12 * nv, "rest normals");
+    reserve(bNrm, nullptr, 12 * nv, "normals");
+    const RowMatrixX3d n0 = vertex_normals(cpu->rest_vertices(), cpu->faces());
+    const std::vector<std::int32_t>& order = cpu->processing_order();
+    float* p = static_cast<float*>(up_n0.mapped());
+    for (Index i = 0; i < nv; ++i)
+      for (int a = 0; a < 3; ++a) p[3 * i + a] = static_cast<float>(n0(order[i], a));
+    copy(up_n0, buf[bNrm0], 12 * nv);
+    if (!rb_N.handle()) rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "normals (read-back)");
+    return true;
+  }
+
+  // Uploads the constraint block (into `cmd`, begun) when the rows or the weights changed.
+  bool update_constraints(const std::vector<SparseVec>& rows, const VectorXd& inv_weight);
+  const Recorded& frame_commands(const Shape& shape);
+};
+
+}  // namespace vpffd::vulkan

@@ -1,0 +1,67 @@
+// The device buffers' layout, defined once: included by the shaders (common.glsl) and
+// by the C++ side of the backend (deformer_impl.h). Written in the part of the C
+// preprocessor and declaration syntax that GLSL and C++ share, so the two cannot
+// drift apart: binding numbers, workgroup sizes and the offsets inside the frame,
+// constraint and step-result buffers.
+#ifndef VPFFD_VULKAN_LAYOUT_H
+#define VPFFD_VULKAN_LAYOUT_H
+
+// Storage buffers of set 0, in binding order (the C++ Buf enum takes these values).
+#define VPFFD_B_P 0           // 3N float: control points, relative to the origin, in scale units
+#define VPFFD_B_X 1           // 3V float: vertices, same units
+#define VPFFD_B_F 2           // 3F int: faces, device numbering
+#define VPFFD_B_ADJ_PTR 3     // vertex-face adjacency (CSR)
+#define VPFFD_B_ADJ 4
+#define VPFFD_B_SPAN 5        // 3V int: first control index per axis
+#define VPFFD_B_TAU 6         // 3V float: local parameters
+#define VPFFD_B_POLY 7        // float: per-span power forms of the three axes
+#define VPFFD_B_TILES 8       // ivec4 per tile: start, count, first control point, -
+#define VPFFD_B_PARTIAL 9     // real, NTILE x KKK: tile partials of the coefficients
+#define VPFFD_B_TILE_VOL 10   // real, NTILE
+#define VPFFD_B_COMB_PTR 11   // per control point, its tile partials (CSR)
+#define VPFFD_B_COMB 12
+#define VPFFD_B_ALPHA 13      // real, N: coefficients
+#define VPFFD_B_INV_W 14      // real, N: inverse weights, 0 = fixed
+#define VPFFD_B_DELTA 15      // real, 4N: three accumulated axes, this step's
+#define VPFFD_B_FRAME 16      // real: frame parameters (FR_*)
+#define VPFFD_B_CONS_I 17     // int: constraint block indices (CI_*)
+#define VPFFD_B_STATS 18      // real: step results (ST_*)
+#define VPFFD_B_RED 19        // real: per-workgroup volume partials, RED_STRIDE per slot
+#define VPFFD_B_CONS_D 20     // real: constraint block values
+#define VPFFD_B_WORK 21       // real: scratch of the solve workgroup
+#define VPFFD_B_NRM0 22       // 3V float: rest vertex normals
+#define VPFFD_B_NRM 23        // 3V float: deformed vertex normals
+#define VPFFD_B_NRM_TAB 24    // real: power forms and derivative scales for normals.comp
+#define VPFFD_B_COUNT 25
+
+// Workgroup sizes.
+#define VPFFD_TILE 64         // vertices per tile = coef.comp's workgroup size
+#define VPFFD_GROUP 256       // every other pass
+#define VPFFD_RED_STRIDE 1024 // the most workgroups of a grid-stride pass (fixed reduction shape)
+
+#ifdef __cplusplus
+namespace vpffd::vulkan {
+#endif
+
+const int RED_STRIDE = VPFFD_RED_STRIDE;
+// frame[]: reals.
+const int FR_TARGET = 0;
+const int FR_MAX_INVW = 1;
+const int FR_HI = 2;          // largest eigenvalue of the unit-diagonal constraint block (>= 1)
+const int FR_RHS = 8;         // 3 x nc, axis-major: target - B(u_s) . P along the axis
+// cons_i[]: ints.
+const int CI_NC = 0;
+const int CI_PTR = 1;         // offset of the per-control-point lists (N + 1 entries)
+const int CI_IDX = 2;         // offset of their entries: s * KKK + local index into cons_d
+const int CI_G = 3;           // offset in cons_d of G_cc = R W^-1 R^T (nc x nc)
+const int CI_H = 4;           // offset in cons_d of G_cc^-1 (nc x nc)
+const int CI_BASE = 8;        // nc first control point indices; cons_d starts with nc x KKK row values
+// stats[]: reals, per step: volume_before, share, sum_squares, max_offset, status, detail.
+const int ST_STEP = 0;
+const int ST_STEP_STRIDE = 8;
+
+#ifdef __cplusplus
+}  // namespace vpffd::vulkan
+#endif
+
+#endif  // VPFFD_VULKAN_LAYOUT_H
