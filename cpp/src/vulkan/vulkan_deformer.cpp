@@ -24,6 +24,7 @@
 // the device only applies the offsets.
 
 #include "deformer_impl.h"
+#include "vpffd/correction/errors.h"
 
 namespace vpffd::vulkan {
 
@@ -126,8 +127,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
       m.submit_and_wait(&m.cmd, 1);  // the block is consistent with `cons` again
       lock.unlock();
       cpu.deform(P, opt);
-      throw SolverError(vpffd::detail::concat("correction along ", axis_name[opt.axes[0]],
-                                              ": the volume and point constraints are linearly dependent"));
+      throw dependent_rows_error(axis_name[opt.axes[0]], true, std::numeric_limits<double>::quiet_NaN());
     }
   }
   if (normals && m.prepare_normals()) aux = true;  // before frame_commands: it may rebind
@@ -210,20 +210,14 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
       m.timings.host_total = ms_since(t_start);
       m.restore_vertices();
       if (status == 1)
-        throw SolverError(vpffd::detail::concat("correction along ", ax,
-                                                ": the volume coefficients of the free control points are all zero "
-                                                "(the mesh is flat along this axis, or every control point that "
-                                                "influences it is fixed)"));
+        throw zero_volume_row_error(ax);
       if (status == 3) {
         const double cond = stat(step, 5);  // < 0: infinite
         // The volume row depends on the constraints: the CPU backend gives its exact
         // message (its condition number); should its test pass, ours still stands.
         lock.unlock();
         cpu.deform(P, opt);
-        throw SolverError(vpffd::detail::concat(
-            "correction along ", ax, ": the volume and point constraints are linearly dependent (condition number ",
-            cond < 0 ? std::numeric_limits<double>::infinity() : cond,
-            "); two constraints on the same point, or a constraint the volume row already fixes?"));
+        throw dependent_rows_error(ax, true, cond < 0 ? std::numeric_limits<double>::infinity() : cond);
       }
       throw DeviceError(vpffd::detail::concat("vulkan: the solve of step ", step, " reported status ", status));
     }

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "vpffd/correction/errors.h"
 #include "vpffd/core/check.h"
 #include "vpffd/core/types.h"
 
@@ -133,10 +134,7 @@ inline VectorXd solve_axis_offsets_parts(const double* alphas, int K, const doub
     const double scale = R.row(p).squaredNorm();
     if (!(scale > 0) || !(G(p, p) > 1e-24 * scale)) {
       if (K == 1 && p == 0)
-        throw SolverError(detail::concat("correction along ", axis,
-                                         ": the volume coefficients of the free control points are all zero "
-                                         "(the mesh is flat along this axis, or every control point that "
-                                         "influences it is fixed)"));
+        throw zero_volume_row_error(axis);
       if (p < nv)
         throw SolverError(detail::concat("correction along ", axis, ": the volume coefficients of part ", p,
                                          " are zero at every free control point (the part is flat along this "
@@ -153,11 +151,7 @@ inline VectorXd solve_axis_offsets_parts(const double* alphas, int K, const doub
   const double lo = eig.eigenvalues().minCoeff(), hi = eig.eigenvalues().maxCoeff();
   if (!(lo > 1e-12 * hi)) {
     if (K <= 1)
-      throw SolverError(detail::concat("correction along ", axis, ": the ", nv ? "volume and point" : "point",
-                                       " constraints are linearly dependent (condition number ",
-                                       lo > 0 ? hi / lo : INFINITY,
-                                       "); two constraints on the same point, or a constraint the volume row "
-                                       "already fixes?"));
+      throw dependent_rows_error(axis, nv > 0, lo > 0 ? hi / lo : INFINITY);
     // The eigenvector of the smallest eigenvalue is the combination of rows that
     // (nearly) vanishes: its large entries name the rows that depend on each other.
     Eigen::Index lowest = 0;
