@@ -5,6 +5,8 @@ C-contiguous float64 / int32 arrays and the caller's arrays are never written to
 """
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 
 from . import _core
@@ -87,3 +89,50 @@ def vector3(a, name: str) -> np.ndarray:
     if not np.isfinite(arr).all():
         raise InvalidInputError(f"{name}: contains NaN or Inf")
     return arr
+
+
+# --- scalars: one rule and one message per kind, for every public function ---------
+
+_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+def _label(name: str, who: str | None) -> str:
+    return f"{who}: {name}" if who else name
+
+
+def real(v, name: str, who: str | None = None) -> float:
+    """``v`` as a float; a TypeError naming the parameter for anything but a real
+    number (a str, None, a sequence, a bool), not numpy's isfinite error."""
+    if not isinstance(v, (bool, np.bool_)):
+        if isinstance(v, numbers.Real):
+            return float(v)
+        if isinstance(v, np.ndarray) and v.ndim == 0 and v.dtype.kind in "iuf":
+            return float(v)
+    raise TypeError(f"{_label(name, who)} must be a real number, got {type(v).__name__} {v!r}")
+
+
+def finite(v, name: str, who: str | None = None) -> float:
+    """``real`` that is also finite (InvalidInputError otherwise)."""
+    x = real(v, name, who)
+    if not np.isfinite(x):
+        raise _core.InvalidInputError(f"{_label(name, who)} must be a finite number, got {x}")
+    return x
+
+
+def positive(v, name: str, who: str | None = None, allow_zero: bool = False) -> float:
+    """``finite`` and > 0 (>= 0 with ``allow_zero``)."""
+    x = real(v, name, who)
+    if not (np.isfinite(x) and (x >= 0 if allow_zero else x > 0)):
+        want = "finite and >= 0" if allow_zero else "a positive finite number"
+        raise _core.InvalidInputError(f"{_label(name, who)} must be {want}, got {x}")
+    return x
+
+
+def axis(a, name: str = "axis", who: str | None = None) -> int:
+    """'x', 'y', 'z' or 0..2 as 0..2 (a bool is not an axis)."""
+    if not isinstance(a, (bool, np.bool_)):
+        if isinstance(a, str) and a in _AXES:
+            return _AXES[a]
+        if isinstance(a, (int, np.integer)) and a in (0, 1, 2):
+            return int(a)
+    raise _core.InvalidInputError(f"{_label(name, who)}: expected 'x', 'y', 'z' or 0..2, got {a!r}")

@@ -15,12 +15,11 @@ True
 """
 from __future__ import annotations
 
-import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import _core, edits
+from . import _arrays, _core, edits
 from .deformer import Deformer
 from .lattice import Lattice
 from .mesh import Mesh
@@ -56,31 +55,16 @@ _ease = ease  # the animators' ``ease`` arguments shadow the function
 
 
 def _real(v, name: str, who: str) -> float:
-    """``v`` as a float; a TypeError naming the parameter for anything but a
-    real number (a str, None, a sequence, a bool), not numpy's isfinite error."""
-    if not isinstance(v, (bool, np.bool_)):
-        if isinstance(v, numbers.Real):
-            return float(v)
-        if isinstance(v, np.ndarray) and v.ndim == 0 and v.dtype.kind in "iuf":
-            return float(v)
-    raise TypeError(f"{who}: {name} must be a real number, got {type(v).__name__} {v!r}")
+    return _arrays.real(v, name, who)
 
 
 def _finite(v, name: str, who: str) -> float:
-    v = _real(v, name, who)
-    if not np.isfinite(v):
-        raise InvalidInputError(f"{who}: {name} must be a finite number, got {v}")
-    return v
+    return _arrays.finite(v, name, who)
 
 
 def _axis(axis, name: str, who: str) -> int:
     """Validates an axis at construction (not at the first frame)."""
-    if not isinstance(axis, (bool, np.bool_)):
-        try:
-            return edits._axis(axis, name)
-        except (TypeError, InvalidInputError):  # TypeError: unhashable, e.g. a list
-            pass
-    raise InvalidInputError(f"{who}: {name} must be 'x', 'y', 'z' or 0..2, got {axis!r}")
+    return _arrays.axis(axis, name, who)
 
 
 class Animator:

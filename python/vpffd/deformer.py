@@ -434,9 +434,7 @@ class Deformer:
         """(alpha, volume): the N coefficients of ``axis`` ('x', 'y', 'z' or 0..2) for
         the mesh with the given current vertices (V, 3), and its volume. Moving the
         control points by delta along that axis changes the volume by alpha @ delta."""
-        a = {"x": 0, "y": 1, "z": 2}.get(axis, axis) if isinstance(axis, str) else axis
-        if isinstance(a, (bool, np.bool_)) or a not in (0, 1, 2):
-            raise InvalidInputError(f"axis: expected 'x', 'y', 'z' or 0..2, got {axis!r}")
+        a = _arrays.axis(axis)
         X = _arrays.points(vertices, "volume_coefficients: vertices", rows=self.mesh.n_vertices)
         alpha, volume = self._d.volume_coefficients(X, a, method, self._threads)
         if self.lattice.periodic:  # a move of a distinct point moves its tied copies too
@@ -530,7 +528,9 @@ class Deformer:
                 raise InvalidInputError(f"constraints[{i}]: expected a (source, target) pair") from None
             tgt = _arrays.vector3(tgt, f"constraints[{i}] target")
             if isinstance(src, (int, np.integer)) and not isinstance(src, bool):
-                if not 0 <= src < self.mesh.n_vertices:
+                # -1 means "a rest-space point" to the core, so the sign is checked here;
+                # the upper bound is the core's check.
+                if src < 0:
                     raise InvalidInputError(f"constraints[{i}]: vertex {src} out of range "
                                             f"(the mesh has {self.mesh.n_vertices} vertices)")
                 cons.append((int(src), np.zeros(3), tgt))
@@ -538,8 +538,6 @@ class Deformer:
                 cons.append((-1, _arrays.vector3(src, f"constraints[{i}] source"), tgt))
         if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)):
             raise TypeError(f"rounds: expected an integer, got {type(rounds).__name__}")
-        if not 1 <= rounds <= 64:
-            raise InvalidInputError(f"deform: rounds is {rounds}; expected 1..64")
         tv = None
         part_targets = None
         if target_volume is not None and self._d.has_parts and np.ndim(target_volume) > 0:
@@ -560,7 +558,8 @@ class Deformer:
             if not np.isfinite(tv):
                 raise InvalidInputError(f"target_volume: expected a finite number, got {target_volume}")
         if preserve_volume and not allow_open and not self._d.is_closed:
-            # The whole defect report says what to repair, not just the first problem found.
+            # The core refuses this too; here the whole defect report (Mesh.check) says
+            # what to repair, not just that the mesh is open.
             raise InvalidInputError(
                 "deform: the mesh does not bound a volume, so it cannot be preserved "
                 f"(pass allow_open=True to keep the cone volume from the lattice centre):\n{self.mesh.check()}")

@@ -5,15 +5,8 @@ import numpy as np
 
 from . import _arrays, _core
 
-_AXES = {"x": 0, "y": 1, "z": 2}
-
-
 def _axis(axis, name="axis") -> int:
-    if axis in _AXES:
-        return _AXES[axis]
-    if isinstance(axis, (int, np.integer)) and axis in (0, 1, 2):
-        return int(axis)
-    raise _core.InvalidInputError(f"{name}: expected 'x', 'y', 'z' or 0..2, got {axis!r}")
+    return _arrays.axis(axis, name)
 
 
 def _prep(points, center):
@@ -87,12 +80,7 @@ def _need_seam(lattice, a: int, seam: str, who: str) -> None:
 
 
 def _positive(v, name, who) -> float:
-    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{who}: {name} must be a number, got {type(v).__name__}")
-    v = float(v)
-    if not (np.isfinite(v) and v > 0):
-        raise _core.InvalidInputError(f"{who}: {name} must be a positive finite number, got {v}")
-    return v
+    return _arrays.positive(v, name, who)
 
 
 def ring(lattice, radius=None, axis="x", around="z") -> np.ndarray:

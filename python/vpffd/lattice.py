@@ -226,10 +226,7 @@ class Lattice:
         if hasattr(points, "vertices"):
             points = points.vertices
         P = _arrays.points(points, "Lattice.around: points")
-        if isinstance(padding, bool) or not isinstance(padding, (int, float, np.integer, np.floating)):
-            raise TypeError(f"Lattice.around: padding must be a number, got {type(padding).__name__}")
-        if not (np.isfinite(padding) and padding >= 0):
-            raise InvalidInputError(f"Lattice.around: padding must be finite and >= 0, got {padding}")
+        padding = _arrays.positive(padding, "padding", "Lattice.around", allow_zero=True)
         lo, hi = P.min(axis=0), P.max(axis=0)
         ext = hi - lo
         for a in range(3):

@@ -103,12 +103,7 @@ class Multires:
 
     def __init__(self, mesh, smoothing=10, threads=None):
         self.mesh = Mesh.from_any(mesh)
-        if isinstance(smoothing, (bool, np.bool_)) or not isinstance(smoothing, (int, float, np.integer,
-                                                                                 np.floating)):
-            raise TypeError(f"Multires: smoothing must be a number, got {type(smoothing).__name__}")
-        if not (np.isfinite(smoothing) and smoothing > 0):
-            raise InvalidInputError(f"Multires: smoothing must be a positive finite number, got {smoothing}")
-        self.smoothing = float(smoothing)
+        self.smoothing = _arrays.positive(smoothing, "smoothing", "Multires")
         self._m = _core.Multires(self.mesh.vertices, self.mesh.faces, self.smoothing, _threads_arg(threads))
         self.base = Mesh(self._m.base, self.mesh.faces)
         self.displacements = _read_only(self._m.displacements)

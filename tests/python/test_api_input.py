@@ -70,8 +70,10 @@ def test_bad_input(sphere, lat):
         d.deform(np.full(lat.control_points.shape, np.nan))
     with pytest.raises(InvalidInputError, match="control_points"):
         d.deform(np.zeros((5, 3)))
-    with pytest.raises(InvalidInputError, match="vertex 99999 out of range"):
+    with pytest.raises(InvalidInputError, match="constraint 0 names vertex 99999, but there are 642 vertices"):
         d.deform(constraints=[(99999, (0, 0, 0))])
+    with pytest.raises(InvalidInputError, match="vertex -2 out of range"):
+        d.deform(constraints=[(-2, (0, 0, 0))])
     with pytest.raises(InvalidInputError, match="backend"):
         vpffd.Deformer(sphere, lat, backend="cuda")
     with pytest.raises(InvalidInputError, match="method"):

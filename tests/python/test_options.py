@@ -32,8 +32,10 @@ def test_defaults_are_the_papers_frame():
 def test_unknown_or_mistyped_options_are_named():
     with pytest.raises(vpffd.InvalidInputError, match="no option 'axis'.*axes"):
         _core.CorrectionOptions(axis="x")
-    with pytest.raises(TypeError, match="option 'rounds' cannot be a str"):
+    with pytest.raises(TypeError, match="option 'rounds' cannot take '3' \\(str\\)"):
         _core.CorrectionOptions(rounds="3")
+    with pytest.raises(vpffd.InvalidInputError, match="rounds is 1099511627776; expected 1..64"):
+        _core.CorrectionOptions(rounds=2**40)
     with pytest.raises(vpffd.InvalidInputError, match="axes: 'xq'"):
         _core.CorrectionOptions(axes="xq")
     with pytest.raises(vpffd.InvalidInputError, match="method"):

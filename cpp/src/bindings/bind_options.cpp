@@ -42,8 +42,10 @@ void set_from_kwargs(CorrectionOptions& o, const py::kwargs& kw) {
       self.attr(name.c_str()) = item.second;
     } catch (py::error_already_set& e) {
       if (!e.matches(PyExc_TypeError)) throw;
-      throw py::type_error("CorrectionOptions: option '" + name + "' cannot be a " +
-                           std::string(py::str(py::type::of(item.second).attr("__name__"))));
+      std::string shown = py::repr(item.second);
+      if (shown.size() > 60) shown = shown.substr(0, 57) + "...";
+      throw py::type_error("CorrectionOptions: option '" + name + "' cannot take " + shown + " (" +
+                           std::string(py::str(py::type::of(item.second).attr("__name__"))) + ")");
     }
   }
 }
@@ -65,7 +67,14 @@ void bind_options(py::module_& m) {
           "axes", [](const CorrectionOptions& o) { return axes_name(o.axes); },
           [](CorrectionOptions& o, const std::string& s) { o.axes = parse_axes(s); },
           "Axes the control points move along, in order: 'xyz', 'xy', 'z', ...")
-      .def_readwrite("rounds", &CorrectionOptions::rounds, "Cycles through the axes (1..64).")
+      .def_property(
+          "rounds", [](const CorrectionOptions& o) { return o.rounds; },
+          [](CorrectionOptions& o, long long r) {
+            // The range itself is the frame's check (Deformer::plan); here only what fits an int.
+            VPFFD_CHECK(r >= 0 && r <= 1000000, "deform: rounds is ", r, "; expected 1..", kMaxRounds);
+            o.rounds = static_cast<int>(r);
+          },
+          "Cycles through the axes (1..64).")
       .def_property(
           "weights",
           [](const CorrectionOptions& o) -> std::optional<VectorXd> {
