@@ -5,6 +5,9 @@ Blender stores positions in float32. The add-on computes in float64 (its result 
 the volume to 1e-12 like vpffd itself) and writes float32 shape keys, so what Blender
 evaluates is that result rounded, and its volume moves by at most the first-order
 bound computed in `float32_volume_bound` (typically ~1e-8 relative).
+
+Length: one file because every test needs the same Blender session set-up (one bpy
+import per process), which the wheel makes slow to repeat.
 """
 import os
 import subprocess

@@ -5,6 +5,9 @@ a time ``t`` in seconds, built from the rest lattice; ``animator.duration`` is
 the length of the animation. ``run_animation`` deforms a mesh with every frame,
 with or without the exact volume correction, restricted to chosen axes.
 
+Length: one module because the animators and the loop that runs them are one
+concept, and each of the five animators documents its parameters and units.
+
 >>> import vpffd
 >>> from vpffd.animate import Twist, run_animation
 >>> cube = vpffd.shapes.box(8)

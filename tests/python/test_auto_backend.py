@@ -6,7 +6,7 @@ import pytest
 
 import vpffd
 from vpffd import _core
-from vpffd import deformer as dm
+from vpffd import backends as dm
 
 GPU = dict(index=3, name="Fake GPU", type="discrete", memory_bytes=1 << 34, float64=True, suitable=True, reason="")
 SOFT = dict(GPU, index=0, name="llvmpipe", type="cpu")

@@ -6,6 +6,9 @@ bounds derived from the device's float32 positions and float64 / float-float sum
 (gpu_bounds.py), computed for each frame from its mesh and lattice; they hold for any
 correctly rounding driver on any CPU or GPU. Every test that runs frames runs in both
 precisions.
+
+Length: one file so that every device comparison shares the same derived bounds
+(gpu_bounds.py) and the same lavapipe fixtures, built once per module.
 """
 import os
 import resource
