@@ -2,8 +2,9 @@
 """Writes docs/images/comparison.png, the README's picture of a deformation:
 a pear-like figure built in code (y up), squashed to 60 % along y, the volume
 correction allowed along x and z only (as `vpffd deform IN OUT --squash 0.6
---preserve xz --render PNG` draws it); and docs/images/shoal.png and
-mobius_walk.png, a frame of each of the demo's moving-object scenes.
+--preserve xz --render PNG` draws it); docs/images/shoal.png and
+mobius_walk.png, a frame of each of the demo's moving-object scenes; and
+docs/images/multires.png, the last frame of the demo's multiresolution scene.
 
     .venv/bin/python scripts/readme_images.py [--out docs/images]
 """
@@ -39,6 +40,13 @@ def main():
             dest = Path(a.out) / f"{scene.key}.png"
             shutil.copy(Path(tmp) / scene.key / f"frame_{frame:03d}.png", dest)
         print(f"wrote {dest}")
+    from vpffd.cli import multires_scene
+    scene = multires_scene.run(multires_scene.bent_body())
+    with tempfile.TemporaryDirectory() as tmp:
+        multires_scene.render(scene, Path(tmp), (400, 300))
+        dest = Path(a.out) / "multires.png"
+        shutil.copy(Path(tmp) / scene.key / f"frame_{scene.frames - 1:03d}.png", dest)
+    print(f"wrote {dest}")
 
 
 if __name__ == "__main__":

@@ -8,6 +8,8 @@ Writes, under ``out``:
 - ``<scene>.gif``: the same frames as an animated GIF;
 - ``<scene>_keyframes.png``: the paper's layout, one row per variant;
 - ``volume.png``: volume over time (matplotlib), and ``volume.csv``;
+- the moving-object scenes (``vpffd.cli.motion``) and the multiresolution scene
+  (``vpffd.cli.multires_scene``): their GIFs, frames and CSV files;
 
 and prints the volume change of every frame.
 """
@@ -303,10 +305,12 @@ def _csv(scenes, path: Path) -> None:
 
 
 def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320, 240), stream=None,
-             progress=None, backend: str = "serial", motion: bool = True) -> dict:
+             progress=None, backend: str = "serial", motion: bool = True, multires: bool = True) -> dict:
     """Runs both animations with every variant, then the moving-object scenes
-    (``vpffd.cli.motion``: a shoal round a ring, walkers on a Moebius band), prints
-    the tables and writes the pictures under ``out``.
+    (``vpffd.cli.motion``: a shoal round a ring, walkers on a Moebius band) and the
+    multiresolution scene (``vpffd.cli.multires_scene``: a bumpy body bent, FFD of
+    the fine mesh against the base + details edit), prints the tables and writes the
+    pictures under ``out``.
 
     Parameters
     ----------
@@ -329,13 +333,16 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
         costs on a busy machine.
     motion : bool
         also run the moving-object scenes (GIFs, ``motion_volume.png``/``.csv``).
+    multires : bool
+        also run the multiresolution scene (``multires.gif``, ``multires.csv``).
 
     Returns
     -------
     dict
         ``scenes`` (list of Scene with their results), ``motion_scenes`` (list of
-        ``vpffd.cli.motion.MotionScene``), ``files`` (paths written), ``seconds``,
-        ``rendered`` (bool).
+        ``vpffd.cli.motion.MotionScene``), ``multires_scene`` (the
+        ``vpffd.cli.multires_scene.MultiresScene`` or None), ``files`` (paths written),
+        ``seconds``, ``rendered`` (bool).
     """
     stream = sys.stdout if stream is None else stream
     if render:  # before minutes of deforming, not when the first frame is drawn
@@ -400,6 +407,24 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
             files.append(out / "motion_volume.png")
         mo.write_csv(moving, out / "motion_volume.csv")
         files.append(out / "motion_volume.csv")
+    layered = None
+    if multires:
+        from . import multires_scene as ms
+        print("\nMultiresolution editing (GPU multiresolution paper, sections 3-4): the smooth base goes through "
+              "the FFD, the details follow its normals", file=stream)
+        layered = ms.bent_body(quick)
+        bar = progress(f"{layered.key}: deforming", layered.frames) if progress else None
+        ms.run(layered, backend=backend, progress=bar)
+        if bar:
+            bar.close()
+        ms.table(layered, stream)
+        if can_render:
+            bar = progress(f"{layered.key}: rendering", layered.frames * len(ms.PANELS)) if progress else None
+            files += ms.render(layered, out, size, progress=bar)
+            if bar:
+                bar.close()
+        ms.write_csv(layered, out / "multires.csv")
+        files.append(out / "multires.csv")
     secs = time.perf_counter() - t0
     print("", file=stream)
     if not can_render:
@@ -416,10 +441,15 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
         if moving:
             print(f"moving objects: {', '.join(str(out / (s.key + '.gif')) for s in moving)} "
                   f"(plain FFD | each object's volume kept; objects coloured by their volume change)", file=stream)
+        if layered is not None:
+            print(f"multiresolution: {out / 'multires.gif'} (FFD of the fine mesh | multiresolution | angle between "
+                  f"its approximate and exact normals)", file=stream)
     plot = (f"volume plot: {out / 'volume.png'}" if has_mpl else
             'no volume plot: matplotlib is not installed (pip install "vpffd[demo]")')
     if moving and has_mpl:
         plot += f", {out / 'motion_volume.png'}"
-    print(f"{plot}, numbers: {out / 'volume.csv'}{', ' + str(out / 'motion_volume.csv') if moving else ''}  "
-          f"({secs:.1f} s)", file=stream)
-    return dict(scenes=scenes, motion_scenes=moving, files=files, seconds=secs, rendered=can_render)
+    numbers = [out / "volume.csv"] + ([out / "motion_volume.csv"] if moving else []) + \
+        ([out / "multires.csv"] if layered is not None else [])
+    print(f"{plot}, numbers: {', '.join(map(str, numbers))}  ({secs:.1f} s)", file=stream)
+    return dict(scenes=scenes, motion_scenes=moving, multires_scene=layered, files=files, seconds=secs,
+                rendered=can_render)

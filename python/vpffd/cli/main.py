@@ -364,7 +364,9 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Animates the paper's twisting cube (Figure 6) and bouncing ball (Figure 1) on "
                        "built-in meshes, plain FFD against the volume-preserving FFD restricted to xy, z and xyz; "
                        "prints the volume change of every frame and writes PNG frames, animated GIFs, key-frame "
-                       "sheets, volume.png and volume.csv.")
+                       "sheets, volume.png and volume.csv. Then objects moving through a fixed deformation (a shoal "
+                       "round a ring, walkers on a Moebius band) and a multiresolution edit (a bumpy body bent: "
+                       "FFD of the fine mesh against base + details, with the normal error).")
     p.add_argument("--out", default="demo_out", metavar="DIR", help="output folder (created)")
     p.add_argument("--size", type=_size, default=(320, 240), metavar="WxH",
                    help="pixels of one panel (default: 320x240)")
