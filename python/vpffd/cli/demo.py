@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import csv
 import importlib.util
-import re
 import sys
 import time
 from dataclasses import dataclass, field
@@ -30,6 +29,7 @@ from ..animate import BouncingBall, Twist, run_animation
 from ..deformer import Deformer
 from ..lattice import Lattice
 from ..mesh import Mesh
+from .frames import bar, frame_dir, save_frame, write_gif
 
 # (key, label, preserve, axes); the paper's Figure 6 rows are plain, xy and z.
 VARIANTS = (
@@ -153,15 +153,7 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
             for k in keys}
     limit = volume_change_limit(np.concatenate([x for k in keys for x in detj[k]]))
     faces = scene.mesh.faces
-    fdir = out / scene.key
-    fdir.mkdir(parents=True, exist_ok=True)
-    # frames of an earlier, longer run into the same folder would look like part
-    # of this one: remove those this run will not overwrite (our names only)
-    for old in fdir.glob("frame_*.png"):
-        m = re.fullmatch(r"frame_(\d+)\.png", old.name)
-        if m and old.name == f"frame_{int(m.group(1)):03d}.png" and int(m.group(1)) >= scene.frames \
-                and old.is_file():
-            old.unlink()
+    fdir = frame_dir(out, scene.key, scene.frames)
     written, sheet_cells, gif = [], {}, []
     total = scene.frames * len(keys)
     for f in range(scene.frames):
@@ -190,15 +182,10 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
         for i, p in enumerate(panels):
             row.paste(p, (i * w, 0))
         _label(row, ["", "", f"frame {f}  t = {scene.results[keys[0]].times[f]:.2f} s"])
-        path = fdir / f"frame_{f:03d}.png"
-        row.save(path)
-        written.append(path)
+        written.append(save_frame(fdir, f, row))
         gif.append(row)
-    gif_path = out / f"{scene.key}.gif"
-    pal = [g.convert("P", palette=Image.ADAPTIVE, colors=128) for g in gif]
-    ms = int(round(1000 * scene.animator.duration / max(scene.frames - 1, 1))) if fps is None else int(1000 / fps)
-    pal[0].save(gif_path, save_all=True, append_images=pal[1:], duration=max(ms, 20), loop=0, optimize=False)
-    written.append(gif_path)
+    step = scene.animator.duration / max(scene.frames - 1, 1) if fps is None else 1.0 / fps
+    written.append(write_gif(gif, out / f"{scene.key}.gif", step))
     fs = max(10, int(round(0.045 * h)))
     bar_h = int(3.0 * fs)
     sheet = Image.new("RGB", (w * len(scene.keyframes), h * len(keys) + bar_h), "white")
@@ -366,19 +353,15 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
               'pip install "vpffd[demo]" brings what the pictures and the plot need', file=stream)
     for s in scenes:
         d = Deformer(s.mesh, s.lattice, backend=backend)
-        bar = progress(f"{s.key}: deforming", s.frames * len(VARIANTS)) if progress else None
-        for i, (k, _label_, preserve, axes) in enumerate(VARIANTS):
-            cb = (lambda done, total, i=i: bar(i * total + done, len(VARIANTS) * total)) if bar else None
-            s.results[k] = run_animation(s.mesh, s.lattice, s.animator, s.frames, axes=axes or "xyz",
-                                         preserve=preserve, deformer=d, progress=cb)
-        if bar:
-            bar.close()
+        with bar(progress, f"{s.key}: deforming", s.frames * len(VARIANTS)) as b:
+            for i, (k, _label_, preserve, axes) in enumerate(VARIANTS):
+                cb = (lambda done, total, i=i: b(i * total + done, len(VARIANTS) * total)) if b else None
+                s.results[k] = run_animation(s.mesh, s.lattice, s.animator, s.frames, axes=axes or "xyz",
+                                             preserve=preserve, deformer=d, progress=cb)
         _table(s, stream)
         if can_render:
-            bar = progress(f"{s.key}: rendering", s.frames * len(VARIANTS)) if progress else None
-            files += _render_scene(s, out, size, progress=bar)
-            if bar:
-                bar.close()
+            with bar(progress, f"{s.key}: rendering", s.frames * len(VARIANTS)) as b:
+                files += _render_scene(s, out, size, progress=b)
     if has_mpl:
         _plot(scenes, out / "volume.png")
         files.append(out / "volume.png")
@@ -391,16 +374,12 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
               "rest mesh, the control points stay", file=stream)
         for make in (mo.shoal, mo.mobius_walk):
             s = make(quick)
-            bar = progress(f"{s.key}: deforming", s.frames * len(mo.MOTION_VARIANTS)) if progress else None
-            mo.run_motion(s, backend=backend, progress=bar)
-            if bar:
-                bar.close()
+            with bar(progress, f"{s.key}: deforming", s.frames * len(mo.MOTION_VARIANTS)) as b:
+                mo.run_motion(s, backend=backend, progress=b)
             mo.table(s, stream)
             if can_render:
-                bar = progress(f"{s.key}: rendering", s.frames * len(mo.MOTION_VARIANTS)) if progress else None
-                files += mo.render(s, out, size, progress=bar)
-                if bar:
-                    bar.close()
+                with bar(progress, f"{s.key}: rendering", s.frames * len(mo.MOTION_VARIANTS)) as b:
+                    files += mo.render(s, out, size, progress=b)
             moving.append(s)
         if has_mpl:
             mo.plot(moving, out / "motion_volume.png")
@@ -413,16 +392,12 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
         print("\nMultiresolution editing (GPU multiresolution paper, sections 3-4): the smooth base goes through "
               "the FFD, the details follow its normals", file=stream)
         layered = ms.bent_body(quick)
-        bar = progress(f"{layered.key}: deforming", layered.frames) if progress else None
-        ms.run(layered, backend=backend, progress=bar)
-        if bar:
-            bar.close()
+        with bar(progress, f"{layered.key}: deforming", layered.frames) as b:
+            ms.run(layered, backend=backend, progress=b)
         ms.table(layered, stream)
         if can_render:
-            bar = progress(f"{layered.key}: rendering", layered.frames * len(ms.PANELS)) if progress else None
-            files += ms.render(layered, out, size, progress=bar)
-            if bar:
-                bar.close()
+            with bar(progress, f"{layered.key}: rendering", layered.frames * len(ms.PANELS)) as b:
+                files += ms.render(layered, out, size, progress=b)
         ms.write_csv(layered, out / "multires.csv")
         files.append(out / "multires.csv")
     secs = time.perf_counter() - t0

@@ -18,7 +18,6 @@ volume kept, objects coloured by their volume change), ``motion_volume.png``
 from __future__ import annotations
 
 import csv
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -222,6 +221,7 @@ def render(scene: MotionScene, out: Path, size, progress=None) -> list:
     from ..comparison import fit_camera
     from ..rendering import render as draw
     from .demo import _label
+    from .frames import frame_dir, save_frame, write_gif
     w, h = size
     keys = [k for k, _, _ in MOTION_VARIANTS]
     labels = {k: lab for k, lab, _ in MOTION_VARIANTS}
@@ -231,12 +231,7 @@ def render(scene: MotionScene, out: Path, size, progress=None) -> list:
     # One colour scale for the whole animation: the largest change of any object.
     ratio = {k: scene.results[k]["volumes"] / scene.results[k]["rest"] for k in keys}
     limit = max(1.05, float(np.exp(np.abs(np.log(ratio["plain"])).max())))
-    fdir = out / scene.key
-    fdir.mkdir(parents=True, exist_ok=True)
-    for old in fdir.glob("frame_*.png"):  # frames of an earlier, longer run
-        m = re.fullmatch(r"frame_(\d+)\.png", old.name)
-        if m and int(m.group(1)) >= scene.frames and old.is_file():
-            old.unlink()
+    fdir = frame_dir(out, scene.key, scene.frames)
     written, gif = [], []
     faces = scene.mesh.faces
     for f in range(scene.frames):
@@ -255,12 +250,7 @@ def render(scene: MotionScene, out: Path, size, progress=None) -> list:
             if progress:
                 progress(f * len(keys) + i + 1, scene.frames * len(keys))
         _label(row, ["", "", f"frame {f}  t = {scene.results[keys[0]]['times'][f]:.2f} s"])
-        p = fdir / f"frame_{f:03d}.png"
-        row.save(p)
-        written.append(p)
-        gif.append(row.convert("P", palette=Image.ADAPTIVE, colors=128))
-    gif_path = out / f"{scene.key}.gif"
-    ms = int(round(1000 * scene.duration / max(scene.frames - 1, 1)))
-    gif[0].save(gif_path, save_all=True, append_images=gif[1:], duration=max(ms, 20), loop=0, optimize=False)
-    written.append(gif_path)
+        written.append(save_frame(fdir, f, row))
+        gif.append(row)
+    written.append(write_gif(gif, out / f"{scene.key}.gif", scene.duration / max(scene.frames - 1, 1)))
     return written

@@ -16,7 +16,6 @@ approximation costs). Writes, under ``out``: ``multires.gif``,
 from __future__ import annotations
 
 import csv
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -133,6 +132,7 @@ def render(scene: MultiresScene, out: Path, size, progress=None) -> list:
     from ..comparison import fit_camera
     from ..rendering import render as draw
     from .demo import _label
+    from .frames import frame_dir, save_frame, write_gif
     w, h = size
     r = scene.results
     faces = scene.mesh.faces
@@ -142,12 +142,7 @@ def render(scene: MultiresScene, out: Path, size, progress=None) -> list:
     # One scale for the whole animation: 0 to the largest angle seen (at least 1 degree).
     top = max(1.0, float(r["angles"].max()))
     grey = np.full((scene.mesh.n_vertices, 3), 0.78)
-    fdir = out / scene.key
-    fdir.mkdir(parents=True, exist_ok=True)
-    for old in fdir.glob("frame_*.png"):  # frames of an earlier, longer run
-        m = re.fullmatch(r"frame_(\d+)\.png", old.name)
-        if m and int(m.group(1)) >= scene.frames and old.is_file():
-            old.unlink()
+    fdir = frame_dir(out, scene.key, scene.frames)
     written, gif = [], []
     for f in range(scene.frames):
         row = Image.new("RGB", (w * len(PANELS), h), "white")
@@ -165,12 +160,7 @@ def render(scene: MultiresScene, out: Path, size, progress=None) -> list:
             if progress:
                 progress(f * len(PANELS) + i + 1, scene.frames * len(PANELS))
         _label(row, ["", "", f"frame {f}  bend {BEND_DEG * r['times'][f] / scene.animator.duration:.0f} deg"])
-        path = fdir / f"frame_{f:03d}.png"
-        row.save(path)
-        written.append(path)
-        gif.append(row.convert("P", palette=Image.ADAPTIVE, colors=128))
-    gif_path = out / f"{scene.key}.gif"
-    ms = int(round(1000 * scene.animator.duration / max(scene.frames - 1, 1)))
-    gif[0].save(gif_path, save_all=True, append_images=gif[1:], duration=max(ms, 20), loop=0, optimize=False)
-    written.append(gif_path)
+        written.append(save_frame(fdir, f, row))
+        gif.append(row)
+    written.append(write_gif(gif, out / f"{scene.key}.gif", scene.animator.duration / max(scene.frames - 1, 1)))
     return written
