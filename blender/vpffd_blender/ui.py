@@ -89,15 +89,19 @@ class _With:
         return getattr(self._s, name)
 
 
-class VPFFD_OT_deform(bpy.types.Operator):
-    """Deform the active mesh by a lattice, keeping its volume exact (vpffd)"""
-    bl_idname = "object.vpffd_lattice"
-    bl_label = "Volume-preserving lattice"
-    bl_options = {'REGISTER', 'UNDO'}
+class _OnMesh:
+    """The operators act on the active object, which must be a mesh."""
 
     @classmethod
     def poll(cls, context):
         return context.active_object is not None and context.active_object.type == 'MESH'
+
+
+class VPFFD_OT_deform(_OnMesh, bpy.types.Operator):
+    """Deform the active mesh by a lattice, keeping its volume exact (vpffd)"""
+    bl_idname = "object.vpffd_lattice"
+    bl_label = "Volume-preserving lattice"
+    bl_options = {'REGISTER', 'UNDO'}
 
     def execute(self, context):
         obj = context.active_object
@@ -121,15 +125,11 @@ class VPFFD_OT_deform(bpy.types.Operator):
         return {'FINISHED'}
 
 
-class VPFFD_OT_bake(bpy.types.Operator):
+class VPFFD_OT_bake(_OnMesh, bpy.types.Operator):
     """Bake one shape key per frame (vpffd_0001, ...), each keyed to 1 on its own frame"""
     bl_idname = "object.vpffd_bake"
     bl_label = "Bake shape keys"
     bl_options = {'REGISTER', 'UNDO'}
-
-    @classmethod
-    def poll(cls, context):
-        return context.active_object is not None and context.active_object.type == 'MESH'
 
     def execute(self, context):
         obj, scene = context.active_object, context.scene
@@ -173,15 +173,11 @@ class VPFFD_OT_bake(bpy.types.Operator):
         return {'FINISHED'}
 
 
-class VPFFD_OT_add_targets(bpy.types.Operator):
+class VPFFD_OT_add_targets(_OnMesh, bpy.types.Operator):
     """Add an empty at each selected vertex; moving the empty drags that vertex (vpffd point constraint)"""
     bl_idname = "object.vpffd_add_targets"
     bl_label = "Add targets at selected vertices"
     bl_options = {'REGISTER', 'UNDO'}
-
-    @classmethod
-    def poll(cls, context):
-        return context.active_object is not None and context.active_object.type == 'MESH'
 
     def execute(self, context):
         obj = context.active_object
