@@ -10,13 +10,19 @@
 ///   vpffd::Deformer d(V, F, lattice);
 ///   auto r = d.deform(P, {});   // r.vertices, r.volume == d.rest_volume()
 /// @endcode
+///
+/// Length: one class because its set-up (embedding, cell order, renumbered faces,
+/// rings), its plan() and its frame loop share that private state; the constraint
+/// helpers and the plan's type live in correction/ (constraints.h, plan.h).
 
 #include <chrono>
 #include <memory>
 #include <mutex>
 #include <string>
 
+#include "vpffd/correction/constraints.h"
 #include "vpffd/correction/options.h"
+#include "vpffd/correction/plan.h"
 #include "vpffd/correction/solve.h"
 #include "vpffd/correction/tied_solve.h"
 #include "vpffd/ffd/basis_matrix.h"
@@ -33,42 +39,6 @@
 
 namespace vpffd {
 
-
-/// What a frame's options amount to, checked: shared by the CPU and GPU paths so
-/// both accept and refuse exactly the same input.
-struct FramePlan {
-  bool correcting = false;    ///< volume or constraints to correct
-  bool measure = false;       ///< the volume is defined (closed mesh, or allow_open)
-  double target = 0;          ///< target volume (with parts: the sum of part_targets)
-  VectorXd part_targets;      ///< with parts: one target volume per part
-  VectorXd inv_weight;        ///< N: 1 / weight, 0 for fixed control points
-  Index free_points = 0;      ///< control points with inv_weight > 0 (checked against the conditions)
-  Embedding sources;          ///< the constraint points embedded in the lattice
-  std::vector<SparseVec> rows;  ///< per constraint: its basis row (control index, value)
-  const Ties* ties = nullptr;   ///< periodic lattice: rows index the extended points (periodic.h)
-};
-
-/// r . x for a sparse row r.
-inline double row_dot(const SparseVec& r, const Eigen::Ref<const VectorXd>& x);
-
-/// Right-hand sides of the point constraints along axis a: target minus where each
-/// constraint point is with control point coordinates `Pa` (earlier steps may have
-/// moved it).
-inline std::vector<double> constraint_rhs(const std::vector<SparseVec>& rows,
-                                          const std::vector<PointConstraint>& constraints, int a,
-                                          const Eigen::Ref<const VectorXd>& Pa);
-
-/// Largest coordinate error of the point constraints for control points `CP` (N x 3).
-inline double constraint_error(const std::vector<SparseVec>& rows, const Eigen::Ref<const RowMatrixX3d>& CP,
-                               const std::vector<PointConstraint>& constraints);
-
-/// The axis steps of a frame with point constraints and no volume row: they do not
-/// depend on the mesh, so every backend solves them on the host with this one loop.
-/// Adds each step's offsets to `res.offsets` (N x 3, zero on entry) and its record to
-/// `res.steps`; the caller moves the vertices by each axis's total.
-/// @throws SolverError as solve_axis_offsets
-inline void constraint_steps(const FramePlan& plan, const Eigen::Ref<const RowMatrixX3d>& P,
-                             const CorrectionOptions& opt, DeformResult& res);
 
 class Deformer {
  public:
@@ -463,12 +433,6 @@ inline CsrMatrix face_matrix_in_face_order(const Deformer& d, int threads = 0) {
 }
 
 
-inline double row_dot(const SparseVec& r, const Eigen::Ref<const VectorXd>& x) {
-  double s = 0;
-  for (size_t q = 0; q < r.index.size(); ++q) s += r.value[q] * x[r.index[q]];
-  return s;
-}
-
 inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
   static const char axis_name[3] = {'x', 'y', 'z'};
   const Index N = n_control_points();
@@ -586,41 +550,6 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
   if (plan.correcting)
     check_free_points(opt.preserve_volume ? parts_.count : 0, nc, plan.free_points, axis_name[opt.axes[0]]);
   return plan;
-}
-
-inline std::vector<double> constraint_rhs(const std::vector<SparseVec>& rows,
-                                          const std::vector<PointConstraint>& constraints, int a,
-                                          const Eigen::Ref<const VectorXd>& Pa) {
-  std::vector<double> rhs(rows.size());
-  for (size_t s = 0; s < rows.size(); ++s) rhs[s] = constraints[s].target[a] - row_dot(rows[s], Pa);
-  return rhs;
-}
-
-inline double constraint_error(const std::vector<SparseVec>& rows, const Eigen::Ref<const RowMatrixX3d>& CP,
-                               const std::vector<PointConstraint>& constraints) {
-  double err = 0;
-  for (size_t s = 0; s < rows.size(); ++s)
-    for (int a = 0; a < 3; ++a) err = std::max(err, std::abs(row_dot(rows[s], CP.col(a)) - constraints[s].target[a]));
-  return err;
-}
-
-inline void constraint_steps(const FramePlan& plan, const Eigen::Ref<const RowMatrixX3d>& P,
-                             const CorrectionOptions& opt, DeformResult& res) {
-  static const char axis_name[3] = {'x', 'y', 'z'};
-  const int naxes = static_cast<int>(opt.axes.size());
-  for (int step = 0; step < naxes * opt.rounds; ++step) {
-    const int a = opt.axes[step % naxes];
-    AxisStep info;
-    info.axis = a;
-    const VectorXd Pa = plan.ties ? expand_column(*plan.ties, P.col(a) + res.offsets.col(a), a)
-                                  : VectorXd(P.col(a) + res.offsets.col(a));
-    const std::vector<double> rhs = constraint_rhs(plan.rows, opt.constraints, a, Pa);
-    const VectorXd delta =
-        solve_tied(plan.ties, nullptr, 0.0, plan.rows, rhs, plan.inv_weight, axis_name[a], &info.sum_squares);
-    info.max_offset = delta.cwiseAbs().maxCoeff();
-    res.offsets.col(a) += delta;
-    res.steps.push_back(info);
-  }
 }
 
 inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
