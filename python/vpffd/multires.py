@@ -219,14 +219,16 @@ class MultiresDeformer:
         ``deform``'s ``volume``), then one compute dispatch that rebuilds the fine
         vertices and their approximate normals from the corrected control points
         (float32 positions relative to the lattice centre, basis values and
-        derivatives evaluated in float64 or float-float; within about 1e-7 of the
-        box diagonal and 1e-3 degree of the CPU for a moderate edit, bounds in
-        tests/python/gpu_bounds.py). The correction and the reconstruction are two
+        derivatives evaluated in float64 or float-float). Against the CPU frame of
+        the same control points the derived worst case (tests/python/gpu_bounds.py,
+        multires_bounds) is a few 1e-6 of the box diagonal for positions and below
+        0.01 degree for the normals of a moderate edit; lavapipe gives 5e-8 of the
+        diagonal and 2e-5 degree. The correction and the reconstruction are two
         submissions; the deformed base (``base_vertices``) is the base Deformer's
         device FFD. Periodic lattices raise BackendUnavailableError, as does a build
         or machine without Vulkan.
         "auto" follows ``Deformer``'s rule on the fine mesh's size: a hardware GPU
-        for meshes of ``vpffd.AUTO_GPU_MIN_VERTICES`` vertices or more, or the
+        for meshes of ``vpffd.backends.AUTO_GPU_MIN_VERTICES`` vertices or more, or the
         device that ``device`` / VPFFD_VULKAN_DEVICE names; otherwise the CPU
         (OpenMP where built with it and there is more than one core). When that
         device cannot be opened it warns and stays on the CPU.

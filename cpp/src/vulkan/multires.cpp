@@ -363,14 +363,18 @@ MultiresFrame VulkanMultires::deform(const Eigen::Ref<const RowMatrixX3d>& P) {
   m.cpu->check_control_points(P);
   std::lock_guard<std::mutex> lock(m.mutex);
   float* p = static_cast<float*>(m.up_P.mapped());
+  // Device coordinates up to 2^100 box half-diagonals: the shader's products and
+  // sums of them (basis derivatives are a few span widths^-1) stay far from float32's
+  // 3.4e38, so no frame overflows into Inf silently.
+  constexpr double kMaxDevice = 0x1p100;
   for (Index c = 0; c < m.N; ++c)
     for (int a = 0; a < 3; ++a) {
-      const float x = static_cast<float>((P(c, a) - m.origin[a]) / m.scale);
-      if (!std::isfinite(x))
+      const double y = (P(c, a) - m.origin[a]) / m.scale;
+      if (!(std::abs(y) <= kMaxDevice))
         throw InvalidInputError(vpffd::detail::concat(
             "VulkanMultires: control point ", c, " is beyond float32's range relative to the lattice (", P(c, a),
-            " along axis ", a, ")"));
-      p[3 * c + a] = x;
+            " along axis ", a, ", more than 2^100 box half-diagonals from its centre)"));
+      p[3 * c + a] = static_cast<float>(y);
     }
   m.submit_and_wait(m.frame_cb);
   FrameTimings tm;

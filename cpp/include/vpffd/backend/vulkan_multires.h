@@ -19,8 +19,10 @@
 /// VulkanDeformer's); the basis values and derivatives are evaluated in float64 or
 /// float-float (Precision) and rounded once to float32. The error against the CPU's
 /// MultiresFFD is bounded per vertex in tests/python/gpu_bounds.py (multires_bounds):
-/// for a cubic lattice and a moderate edit, positions within about 1e-7 of the box
-/// diagonal and normals within about 1e-4 degree.
+/// for a cubic lattice a worst case of a few 1e-6 of the box diagonal for positions
+/// (about 26 float32 roundings of terms up to half the diagonal, plus |d| times the
+/// normal's direction error) and below 0.01 degree for the normals of a moderate edit;
+/// lavapipe's errors are about 5e-8 of the diagonal and 2e-5 degree.
 ///
 /// Threads: deform() and last_timings() may be called from several threads; frames run
 /// one at a time. The device is shared with every VulkanDeformer on it.
@@ -56,8 +58,9 @@ class VulkanMultires {
   /// One frame with control points P (N x 3, world units): the fine vertices and
   /// their approximate unit normals (zero rows where the deformed tangents are
   /// parallel), input vertex order.
-  /// @throws InvalidInputError for a wrong row count, NaN or Inf, or control points
-  ///         beyond float32's range in device units; DeviceError on a device failure
+  /// @throws InvalidInputError for a wrong row count, NaN or Inf, or a control point
+  ///         more than 2^100 box half-diagonals from the box centre (float32 range on
+  ///         the device); DeviceError on a device failure
   MultiresFrame deform(const Eigen::Ref<const RowMatrixX3d>& P);
 
   /// The CPU counterpart on the same decomposition and lattice (its embedding is the
