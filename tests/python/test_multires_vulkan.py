@@ -12,6 +12,11 @@ half the diagonal, with ~26 roundings of u = 6e-8 each (the basis values' includ
 bound is 1-10e-6 of the diagonal for these meshes, and that bound, which holds on any
 correctly rounding driver, is what the tests assert (lavapipe's errors are about 5e-8).
 """
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -212,3 +217,40 @@ def test_vulkan_auto_follows_the_deformer_rule(monkeypatch):
     assert md.backend == "vulkan" and vpffd.Deformer(mesh, lat).backend == "vulkan"
     monkeypatch.delenv("VPFFD_VULKAN_DEVICE")
     assert vpffd.MultiresDeformer(mr, lat, device=SEL).backend == "vulkan"
+
+
+VALIDATION_LAYER = Path("/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json")
+
+
+@pytest.mark.skipif(not VALIDATION_LAYER.exists(), reason="Khronos validation layer not installed")
+def test_vulkan_multires_validation_layer_reports_nothing():
+    # Lavapipe forgives missing barriers that a real GPU would not: frames of every mode
+    # (plain, volume base / fine, repeated so that a frame's copies meet the next one's
+    # dispatch), a refused frame, both precisions, with a VulkanDeformer on the same
+    # device, under the validation layer with synchronization validation.
+    code = """
+import numpy as np, vpffd
+m = vpffd.shapes.bumpy_sphere(2)
+mr = vpffd.Multires(m, smoothing=3)
+lat = vpffd.Lattice.around(m, shape=5)
+P = vpffd.twist(lat.control_points, 40)
+for prec in ("float64", "float-float"):
+    md = vpffd.MultiresDeformer(mr, lat, backend="vulkan", device=%r, gpu_precision=prec)
+    for kw in (dict(preserve_volume=False), dict(volume="base"), dict(volume="fine"), dict(preserve_volume=False)):
+        md.deform(P, **kw)
+    try:
+        md.deform(np.zeros((3, 3)))
+    except vpffd.InvalidInputError:
+        pass
+    md.deform(P, preserve_volume=False, normals="exact")
+print("done")
+""" % SEL
+    env = dict(os.environ, VK_INSTANCE_LAYERS="VK_LAYER_KHRONOS_validation",
+               VK_LAYER_ENABLES="VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT",
+               VK_LOADER_DEBUG="layer", PYTHONWARNINGS="ignore")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    log = out.stdout + out.stderr
+    assert 'Insert instance layer "VK_LAYER_KHRONOS_validation"' in log  # the layer really ran
+    problems = [ln for ln in log.splitlines() if "Validation" in ln or "VUID-" in ln or "SYNC-" in ln]
+    assert "done" in out.stdout and not problems, problems[:5]
