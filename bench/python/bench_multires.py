@@ -1,14 +1,20 @@
 #!/usr/bin/env python
-"""CPU benchmark of multiresolution frames (issue 12, paper 002's Table II).
+"""Benchmark of multiresolution frames (issue 12, paper 002's Table II).
 
-    .venv/bin/python bench/python/bench_multires.py [--sizes 6 7 8] [--repeats 5] [--no-shared]
+    .venv/bin/python bench/python/bench_multires.py [--sizes 6 7 8] [--repeats 5] [--no-shared] [--no-vulkan]
 
-Per mesh and thread count (1 and 2), median frame times of
+Per mesh, on the CPU with 1 and 2 threads and on the first suitable Vulkan device
+(a "vulkan" row; on a machine without a GPU that is lavapipe, Mesa's CPU driver, so
+its figures are not a GPU's), median frame times of
   * plain FFD of the fine mesh (positions only: Deformer.ffd),
   * plain FFD with exact deformed normals (positions + cof(J) n per vertex),
   * the multiresolution reconstruction (FFD and analytic Jacobian at the foot
     point, p' = S' + d N_S', approximate normal of eqs. 6-7),
-in million triangles per second, and the bytes per vertex each reads. Then the
+in million triangles per second, and the bytes per vertex each reads. On Vulkan the
+three are one submission each (VulkanDeformer's plain frame, with its normals
+pass, and VulkanMultires), timed end to end on the host (upload, dispatch, read-back
+and reordering), with the device's own timestamps of the multiresolution frame
+printed beside. Then the
 approximate-normal error table (mean / 95th percentile / max angle to the normals
 of the deformed fine mesh) for a moderate edit and two extreme ones, at several
 smoothing strengths. Bumpy icospheres are generated in code; the dragon is read
@@ -54,6 +60,34 @@ def pull_four(lat, frac=0.2):
     for j, k in [(nv // 2 - 1, nw // 2 - 1), (nv // 2, nw // 2 - 1), (nv // 2 - 1, nw // 2), (nv // 2, nw // 2)]:
         P[nu - 2, j, k, 0] += frac * ext[0]
     return P
+
+
+def vulkan_selector():
+    """Index of the first suitable Vulkan device (a string) and its name, or None."""
+    ok = [d for d in vpffd.vulkan_devices() if d["suitable"]]
+    return (str(ok[0]["index"]), ok[0]["name"]) if ok else None
+
+
+def speed_vulkan(name, mesh, mr, lat, P, repeats, selector):
+    """The Vulkan row: plain FFD, FFD with normals and the multiresolution frame, one
+    submission each, and the corrected frames."""
+    dv = vpffd.Deformer(mesh, lat, backend="vulkan", device=selector)
+    mv = vpffd.MultiresDeformer(mr, lat, backend="vulkan", device=selector)
+    plain = _core.CorrectionOptions(preserve_volume=False)
+    t_ffd = median_ms(lambda: dv._vk.deform(P, plain), repeats)
+    t_ffdn = median_ms(lambda: dv._vk.deform(P, plain, normals=True), repeats)
+    gpu = []
+
+    def mr_frame():
+        mv._vk.deform(P)
+        gpu.append(mv._vk.last_timings()["gpu_total_ms"])
+    t_mr = median_ms(mr_frame, repeats)
+    t_vol = median_ms(lambda: dv.deform(P), repeats)
+    t_mrvol = median_ms(lambda: mv.deform(P, volume="base"), repeats)
+    mt = mesh.n_faces / 1e6
+    row = (name, mesh.n_vertices, mesh.n_faces, "vulkan", t_ffd, t_ffdn, t_mr, t_vol, t_mrvol,
+           mt / (t_ffd / 1e3), mt / (t_ffdn / 1e3), mt / (t_mr / 1e3))
+    return row, float(np.median(gpu))
 
 
 def speed(name, mesh, smoothing, shape, repeats):
@@ -106,6 +140,7 @@ def main():
     ap.add_argument("--smoothing", type=float, default=10)
     ap.add_argument("--lattice", type=int, default=8)
     ap.add_argument("--no-shared", action="store_true")
+    ap.add_argument("--no-vulkan", action="store_true", help="skip the Vulkan row")
     ap.add_argument("--accuracy-size", type=int, default=5, help="icosphere for the normal-error table")
     a = ap.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
@@ -117,12 +152,25 @@ def main():
     print("\n| mesh | V | F | threads | FFD ms | FFD+normals ms | MR ms | VP-FFD ms | MR+VP(base) ms | "
           "FFD Mtri/s | FFD+normals Mtri/s | MR Mtri/s | MR / FFD+normals |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    vk = None if a.no_vulkan else vulkan_selector()
+    if vk is not None:
+        print(f"vulkan device: {vk[1]}" + (" (a CPU driver: not a GPU figure)" if "llvmpipe" in vk[1] else "")
+              + f"; multiresolution {_core.VulkanMultires.frame_bytes_per_vertex} bytes per vertex on the device "
+              "(float32)")
     acc_meshes = []
     for name, mesh in meshes(a.sizes, not a.no_shared):
         mr, t_dec, rows = speed(name, mesh, a.smoothing, (a.lattice,) * 3, a.repeats)
+        gpu_ms = None
+        if vk is not None:
+            lat = vpffd.Lattice.around(mesh, shape=(a.lattice,) * 3)
+            P = np.ascontiguousarray(vpffd.twist(lat.control_points, 90).reshape(-1, 3))
+            row, gpu_ms = speed_vulkan(name, mesh, mr, lat, P, a.repeats, vk[0])
+            rows.append(row)
         for r in rows:
             print(f"| {r[0]} | {r[1]:,} | {r[2]:,} | {r[3]} | {r[4]:.1f} | {r[5]:.1f} | {r[6]:.1f} | {r[7]:.1f} | "
                   f"{r[8]:.1f} | {r[9]:.1f} | {r[10]:.1f} | {r[11]:.1f} | {r[6] / r[5]:.2f} |", flush=True)
+        if gpu_ms is not None:
+            print(f"  ({name}: multiresolution frame on the device, its timestamps: {gpu_ms:.1f} ms)", flush=True)
         print(f"  ({name}: decomposition {t_dec:.2f} s; {mr})", flush=True)
         if name == "dragon":
             acc_meshes.append((name, mesh))

@@ -11,10 +11,11 @@ per vertex without neighbours (eq. 1 and the approximate normals of eqs. 6-7).
 >>> r.vertices.shape == mesh.vertices.shape
 True
 
-Frames run on the CPU (OpenMP or serial). The Vulkan compute dispatch of issue 12
-is not written yet: ``backend="vulkan"`` raises BackendUnavailableError. The
-per-vertex frame data (``Multires.frame_bytes_per_vertex``: foot point, S_u, S_v,
-d and six coefficients, one array each) is laid out for such a shader.
+Frames run on the CPU (OpenMP or serial) or, for ``MultiresDeformer``, on a Vulkan
+device (``backend="vulkan"``: one compute dispatch per frame rebuilds positions and
+approximate normals from the foot points' embedding, S_u, S_v, d and the six
+coefficients, uploaded once; see ``MultiresDeformer``). ``RBFDeformer`` runs on the
+CPU.
 """
 from __future__ import annotations
 
@@ -22,7 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import warnings
+
 from . import _arrays, _core
+from .backends import _requested_precision, _resolve_backend
 from .deformer import Deformer
 from .lattice import Lattice
 from .mesh import Mesh
@@ -210,59 +214,114 @@ class MultiresDeformer:
         its box must contain the base mesh (``outside``) — a lattice around the
         fine mesh does, since fairing moves vertices inwards.
     backend : {"auto", "openmp", "serial", "vulkan"}
-        "auto" runs on the CPU (OpenMP where built with it). "vulkan" raises
-        BackendUnavailableError: the compute dispatch (issue 12) is not written yet.
+        "vulkan": every part of a frame runs on the device: the volume correction
+        (``Deformer(..., backend="vulkan")`` of the base or the fine mesh, see
+        ``deform``'s ``volume``), then one compute dispatch that rebuilds the fine
+        vertices and their approximate normals from the corrected control points
+        (float32 positions relative to the lattice centre, basis values and
+        derivatives evaluated in float64 or float-float). Against the CPU frame of
+        the same control points the derived worst case (tests/python/gpu_bounds.py,
+        multires_bounds) is a few 1e-6 of the box diagonal for positions and below
+        0.01 degree for the normals of a moderate edit; lavapipe gives 5e-8 of the
+        diagonal and 2e-5 degree. The correction and the reconstruction are two
+        submissions; the deformed base (``base_vertices``) is the base Deformer's
+        device FFD. Periodic lattices raise BackendUnavailableError, as does a build
+        or machine without Vulkan.
+        "auto" follows ``Deformer``'s rule on the fine mesh's size: a hardware GPU
+        for meshes of ``vpffd.backends.AUTO_GPU_MIN_VERTICES`` vertices or more, or the
+        device that ``device`` / VPFFD_VULKAN_DEVICE names; otherwise the CPU
+        (OpenMP where built with it and there is more than one core). When that
+        device cannot be opened it warns and stays on the CPU.
     outside : {"error", "extrapolate"}
         for base vertices outside the box (as ``Deformer``). Foot points that stray
         outside always follow the boundary polynomial pieces (the rest lattice maps
         them onto themselves).
     threads : int, optional
         OpenMP threads (default: all); results do not depend on it.
+    device : int or str, optional
+        "vulkan": the device (index or part of its name), as ``Deformer``.
+    gpu_precision : {"auto", "float64", "float-float"}, optional
+        "vulkan": how the device sums, as ``Deformer``.
     """
 
-    def __init__(self, multires, lattice, backend: str = "auto", outside: str = "error", threads=None):
+    def __init__(self, multires, lattice, backend: str = "auto", outside: str = "error", threads=None,
+                 device=None, gpu_precision=None):
         _check_multires(multires, "MultiresDeformer")
         if not isinstance(lattice, Lattice):
             raise TypeError(f"MultiresDeformer: expected a vpffd.Lattice, got {type(lattice).__name__}")
         if not isinstance(backend, str):
             raise TypeError(f"backend: expected a string, got {type(backend).__name__}")
-        if backend == "vulkan":
-            raise BackendUnavailableError(
-                "MultiresDeformer: backend 'vulkan' is not supported yet (the multiresolution compute dispatch of "
-                "issue 12 is still to be written); use 'auto', 'openmp' or 'serial'")
-        if backend not in ("auto", "openmp", "serial"):
-            raise InvalidInputError(f"backend: unknown backend {backend!r}; known: 'auto', 'openmp', 'serial', "
-                                    "'vulkan'")
-        if backend == "openmp" and not _core.has_openmp():
-            raise BackendUnavailableError("backend 'openmp': this build has no OpenMP")
-        if backend == "auto":
-            backend = "openmp" if _core.has_openmp() else "serial"
+        precision = _requested_precision(gpu_precision)
         if lattice.periodic:
+            if backend == "vulkan":
+                raise BackendUnavailableError(
+                    f"MultiresDeformer: backend 'vulkan': the lattice is periodic along {lattice.periodic!r}, "
+                    "which the device does not evaluate (and the multiresolution FFD map does not support on the "
+                    "CPU either); use a Deformer on the fine mesh")
             raise InvalidInputError(f"MultiresDeformer: periodic lattices (periodic={lattice.periodic!r}) are not "
                                     "supported by the multiresolution FFD map; use a Deformer on the fine mesh")
-        self.backend = backend
-        self._threads = 1 if backend == "serial" else _threads_arg(threads)
+        resolved, threads_core, selector = _resolve_backend(backend, threads, device, multires.n_vertices)
+        self._vk = None
+        if resolved == "vulkan":
+            try:
+                self._vk = _core.VulkanMultires(multires._m, lattice._spec, selector, precision)
+            except (BackendUnavailableError, _core.DeviceError) as e:
+                if backend != "auto":
+                    raise
+                warnings.warn(f"MultiresDeformer: backend 'auto' could not use Vulkan ({e}); using the CPU",
+                              stacklevel=2)
+                resolved, threads_core, selector = _resolve_backend(
+                    "openmp" if _core.has_openmp() else "serial", threads)
+        self.backend = resolved
+        self._threads = threads_core
         self.multires = multires
         self.lattice = lattice
-        self._outside = outside
+        gpu = {"device": selector, "gpu_precision": precision} if self._vk is not None else {}
         dthreads = None if self._threads == 0 else self._threads
-        # The volume corrections are the Deformer's own (no second implementation).
-        self._base = Deformer(multires.base, lattice, backend=backend, outside=outside, threads=dthreads)
+        # The volume corrections are the Deformer's own (no second implementation),
+        # on the same backend and device.
+        self._deformer_args = dict(backend=self.backend, outside=outside, threads=dthreads, **gpu)
+        self._base = Deformer(multires.base, lattice, **self._deformer_args)
         self._fine = None
-        self._ffd = _core.MultiresFFD(multires._m, lattice._spec, self._threads)
+        self._ffd = _core.MultiresFFD(multires._m, lattice._spec, self._threads) if self._vk is None else None
+
+    @property
+    def device(self):
+        """The Vulkan device dict (see ``vulkan_devices()``), or None on the CPU."""
+        return self._vk.device if self._vk is not None else None
+
+    @property
+    def gpu_precision(self):
+        """How the device sums ("float64" or "float-float"), or None on the CPU."""
+        return self._vk.precision if self._vk is not None else None
+
+    def last_timings(self) -> dict:
+        """The reconstruction dispatch of the last frame ("vulkan" only): ``gpu_total_ms``
+        (its upload, dispatch and copies, when the queue has timestamps) and
+        ``host_total_ms``. The correction's are ``_base`` / the fine Deformer's."""
+        if self._vk is None:
+            raise InvalidInputError("last_timings: only the 'vulkan' backend records frame timings")
+        return self._vk.last_timings()
 
     @property
     def bytes_per_vertex(self) -> int:
-        """Bytes a frame reads per vertex: foot-point embedding (36), S_u, S_v, d and
-        the six coefficients (104): 140."""
+        """Bytes a frame reads per vertex. CPU (float64): foot-point embedding (36), S_u,
+        S_v, d and the six coefficients (104): 140. Vulkan (float32): spans (12),
+        local parameters, S_u, S_v, d and the coefficients (64): 76."""
+        if self._vk is not None:
+            return _core.VulkanMultires.frame_bytes_per_vertex
         return _core.MultiresFFD.frame_bytes_per_vertex
 
     def _fine_deformer(self) -> Deformer:
         if self._fine is None:
-            t = None if self._threads == 0 else self._threads
-            self._fine = Deformer(self.multires.mesh, self.lattice, backend=self.backend, outside=self._outside,
-                                  threads=t)
+            self._fine = Deformer(self.multires.mesh, self.lattice, **self._deformer_args)
         return self._fine
+
+    def _base_ffd(self, Pc) -> np.ndarray:
+        """The deformed base mesh for control points Pc (N, 3): on the device for "vulkan"."""
+        if self._vk is not None:
+            return self._base.deform(Pc, preserve_volume=False).vertices
+        return self._base.ffd(Pc)
 
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", volume: str = "base",
                normals: str = "approximate", weights=None, fixed=None, rounds: int = 1) -> MultiresResult:
@@ -284,7 +343,11 @@ class MultiresDeformer:
             its vertices (the displacement follows the deformed base normal), so its
             volume is approximate too; ``r.volume_error`` says by how much.
         normals : {"approximate", "exact"}
-            eqs. 6-7 per vertex, or the area-weighted normals of the deformed fine mesh.
+            eqs. 6-7 per vertex, or the area-weighted normals of the deformed fine
+            mesh (on "vulkan" too these are computed on the CPU from the device's
+            vertices: they need the neighbours, which the per-vertex dispatch has not,
+            and the Vulkan Deformer's normals are those of the FFD of the fine mesh,
+            not of the rebuilt one).
         """
         if not isinstance(preserve_volume, (bool, np.bool_)):
             raise TypeError(f"preserve_volume: expected a bool, got {type(preserve_volume).__name__}")
@@ -300,11 +363,14 @@ class MultiresDeformer:
             d = self._base if volume == "base" else self._fine_deformer()
             r = d.deform(P, preserve_volume=True, axes=axes, weights=weights, fixed=fixed, rounds=rounds)
             Pc = np.ascontiguousarray(r.control_points.reshape(-1, 3))
-            B = r.vertices if volume == "base" else self._base.ffd(Pc)
+            B = r.vertices if volume == "base" else self._base_ffd(Pc)
         else:
             Pc = P
-            B = self._base.ffd(Pc)
-        X, N = self._ffd.deform(Pc, self._threads)
+            B = self._base_ffd(Pc)
+        if self._vk is not None:
+            X, N = self._vk.deform(Pc)
+        else:
+            X, N = self._ffd.deform(Pc, self._threads)
         return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend)
 
 

@@ -10,6 +10,7 @@
 
 #ifdef VPFFD_HAS_VULKAN
 #include "vpffd/backend/vulkan.h"
+#include "vpffd/backend/vulkan_multires.h"
 
 namespace {
 
@@ -364,6 +365,108 @@ TEST_P(VulkanP, ThreadsGetTheirOwnFrames) {
   b.join();
   EXPECT_EQ(bad[0], 0);
   EXPECT_EQ(bad[1], 0);
+}
+
+// The multiresolution frame on the device (multires.comp) against MultiresFFD under an
+// affine map x -> A x + t of a bumpy sphere's decomposition: the FFD of the mapped rest
+// control points reproduces it exactly (J = A at every foot point), and the CPU gives
+// S' = A S + t, S'_u = A S_u, S'_v = A S_v. The bound is the Python tests'
+// (gpu_bounds.multires_bounds) with the Jacobian columns' error of NormalsOfAnAffineMap
+// (worst cases of the basis sums for clamped uniform knots), the value's error
+// eS = 1.01 (3 R eB + (3K + 4) u R), and per vertex
+//   e_su = sum_a |S_u,a| (e + 3 u (|A_a| + e)) + u |S_u| sum_a |A_a|   (S_v alike),
+//   e_c = e_su |S'_v| + |S'_u| e_sv + e_su e_sv + 4 u S'_u~ S'_v~,  e_N = 2 e_c / |c| + 4 u,
+//   e_p = eS + |d| e_N + 3 u |d| + u (|S' - o| + |d|),
+//   e_f = |a| e_su + |b| e_sv + |g| e_N + 4 u (|a| S'_u~ + |b| S'_v~ + |g|),
+//   e_n = e_fu |F_v| + |F_u| e_fv + e_fu e_fv + 4 u F_u~ F_v~,  angle <= asin(e_n / |n|) + 4 u.
+TEST_P(VulkanP, MultiresFrameOfAnAffineMap) {
+  Scene s = sphere(3, 3, {5, 5, 5});
+  for (Index i = 0; i < s.V.rows(); ++i) {
+    const Vector3d n = s.V.row(i).normalized();
+    s.V.row(i) = (n * (1.0 + 0.05 * std::sin(7 * n.x()) * std::sin(7 * n.y()) * std::sin(7 * n.z()))).transpose();
+  }
+  auto mr = std::make_shared<Multires>(decompose(s.V, s.F, 3.0));
+  vulkan::VulkanMultires gpu(mr, s.L, "", GetParam());
+  EXPECT_EQ(gpu.precision(), GetParam());
+  const MultiresFFD& cpu = gpu.cpu();
+  Eigen::Matrix3d A;
+  A << 1.1, 0.2, 0.0, 0.0, 0.9, 0.1, 0.1, 0.0, 1.2;
+  const Vector3d t(0.05, -0.1, 0.02);
+  const RowMatrixX3d P = (rest_control_points(s.L) * A.transpose()).rowwise() + t.transpose();
+  const MultiresFrame g = gpu.deform(P), c = cpu.deform(P);
+  ASSERT_EQ(g.vertices.rows(), s.V.rows());
+  ASSERT_EQ(g.normals.rows(), s.V.rows());
+  const MultiresFrame g2 = gpu.deform(P);  // a frame depends only on its control points
+  EXPECT_TRUE(g2.vertices == g.vertices && g2.normals == g.normals);
+
+  const double u = std::ldexp(1.0, -24);
+  const int d = 3, K = d + 1;
+  const double h = (s.L.box_max[0] - s.L.box_min[0]) / (5 - d), gs = 1 / h;
+  const Vector3d o = 0.5 * (s.L.box_min + s.L.box_max);
+  const double R = (P.rowwise() - o.transpose()).rowwise().norm().maxCoeff();
+  const double eB = u * (1 + 2 * d) + 1e-9, eD = gs * (u * (2 * d + 4 * d * (d - 1)) + 1e-9), S = 2 * d * gs;
+  const double e = 1.01 * (R * (eD + 2 * S * eB) + (3 * K + 3) * u * R * S + 2 * u * R * S);
+  const double eS = 1.01 * (3 * R * eB + (3 * K + 4) * u * R);
+  const Vector3d cn = A.colwise().norm().transpose();
+  const double diag = (s.L.box_max - s.L.box_min).norm();
+  double worst_p = 0, worst_n = 0;
+  for (Index v = 0; v < s.V.rows(); ++v) {
+    for (int a = 0; a < 3; ++a) ASSERT_TRUE(mr->foot[a][v] >= s.L.box_min[a] && mr->foot[a][v] <= s.L.box_max[a]);
+    auto image = [&](const Vector3d& tv, Vector3d& img) {
+      img = A * tv;
+      double err = u * tv.norm() * cn.sum();
+      for (int a = 0; a < 3; ++a) err += std::abs(tv[a]) * (e + 3 * u * (cn[a] + e));
+      return 1.01 * err;
+    };
+    Vector3d su1, sv1;
+    const double e_su = image(mr->tangent_u(v), su1), e_sv = image(mr->tangent_v(v), sv1);
+    const Vector3d cr = su1.cross(sv1), ns = cr.normalized();
+    const double e_c = e_su * sv1.norm() + su1.norm() * e_sv + e_su * e_sv +
+                       4 * u * (su1.norm() + e_su) * (sv1.norm() + e_sv);
+    const double e_N = 2 * e_c / cr.norm() + 4 * u;
+    const double ad = std::abs(mr->d[v]);
+    const Vector3d S1 = A * mr->foot_point(v) + t;
+    const double e_p = eS + ad * e_N + 3 * u * ad + u * ((S1 - o).norm() + ad);
+    const NormalCoefficients k = mr->coefficients(v);
+    Vector3d f[2];
+    double ef[2];
+    for (int j = 0; j < 2; ++j) {
+      const double a = k[3 * j], b = k[3 * j + 1], gg = k[3 * j + 2];
+      f[j] = a * su1 + b * sv1 + gg * ns;
+      ef[j] = 1.01 * (std::abs(a) * e_su + std::abs(b) * e_sv + std::abs(gg) * e_N +
+                      4 * u * (std::abs(a) * (su1.norm() + e_su) + std::abs(b) * (sv1.norm() + e_sv) + std::abs(gg)));
+    }
+    const double e_n = ef[0] * f[1].norm() + f[0].norm() * ef[1] + ef[0] * ef[1] +
+                       4 * u * (f[0].norm() + ef[0]) * (f[1].norm() + ef[1]);
+    const double bound_n = std::asin(std::min(1.0, e_n / f[0].cross(f[1]).norm())) + 4 * u + std::ldexp(1.0, -40);
+    const double bound_p = e_p + 1e-12 * diag;  // the CPU's own rounding (test_multires: 1e-12)
+    const Vector3d gn = g.normals.row(v).transpose(), cnv = c.normals.row(v).transpose();
+    EXPECT_LE((g.vertices.row(v) - c.vertices.row(v)).norm(), bound_p) << "vertex " << v;
+    EXPECT_LE(std::atan2(gn.cross(cnv).norm(), gn.dot(cnv)), bound_n) << "vertex " << v;
+    EXPECT_NEAR(gn.norm(), 1.0, 1e-6);
+    worst_p = std::max(worst_p, bound_p / diag);
+    worst_n = std::max(worst_n, bound_n);
+  }
+  // The bounds are tight enough to mean something: with the basis sums' global worst
+  // cases they are about 1.3x the 0.01 degree and 1e-5 of the diagonal (the
+  // Python tests' per-vertex sums prove 0.01 degree for a moderate edit).
+  EXPECT_LT(worst_n, 0.02 / 180 * std::acos(-1.0));
+  EXPECT_LT(worst_p, 2e-5);
+  // Bad input: the CPU's checks and messages, and the device's range.
+  EXPECT_THROW(gpu.deform(P.topRows(P.rows() - 1)), InvalidInputError);
+  RowMatrixX3d bad = P;
+  bad(2, 1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(gpu.deform(bad), InvalidInputError);
+  bad(2, 1) = 1e300;
+  EXPECT_THROW(gpu.deform(bad), InvalidInputError);
+}
+
+TEST(Vulkan, MultiresRefusesPeriodicLattice) {
+  Scene s = sphere(2, 3, {6, 6, 6});
+  auto mr = std::make_shared<Multires>(decompose(s.V, s.F, 3.0));
+  Lattice L = s.L;
+  L.seam[0] = Seam::Shift;
+  EXPECT_THROW(vulkan::VulkanMultires(mr, L), BackendUnavailableError);
 }
 
 INSTANTIATE_TEST_SUITE_P(Precisions, VulkanP,

@@ -201,14 +201,14 @@ def _axis_errors(knots, degree, u, du_dx):
     return eB, eD, S, first
 
 
-def normal_angle_bound(lat, rest_vertices, control_points, jacobians, rest_normals, offsets=None):
-    """(V,) bound in degrees on the angle between the device's normals and
-    deformed_normals_exact of the same control points (the derivation above).
-    ``offsets``: the frame's offsets (their rounding adds to the control points')."""
-    X = np.asarray(rest_vertices, float)
+def _jacobian_errors(lat, points, control_points, dmax=0.0):
+    """Per point (rest-space, (V, 3)): the bounds of the derivation above on the device's
+    Jacobian columns, e (V, 3), the largest |q - o| over the point's control points, R
+    (V,), and the three axes' total basis-value errors, eB (3, V). ``dmax``: the largest
+    offset added to the control points on the device (its rounding adds to theirs)."""
+    X = np.asarray(points, float)
     Q = np.asarray(control_points, float).reshape(*lat.shape, 3)
     o = 0.5 * (lat.box_min + lat.box_max)
-    dmax = 0.0 if offsets is None else float(np.abs(np.asarray(offsets, float)).max(initial=0.0)) * np.sqrt(3)
     Ks = [d + 1 for d in lat.degree]
     n_v = len(X)
     eB, eD, S, first = [], [], [], []
@@ -231,6 +231,16 @@ def normal_angle_bound(lat, rest_vertices, control_points, jacobians, rest_norma
     terms = sum(Ks) + 3
     e = 1.01 * np.stack([R * (eD[a] + S[a] * (eB[(a + 1) % 3] + eB[(a + 2) % 3])) + terms * U32 * R * S[a]
                          + 2 * U32 * (R + dmax) * S[a] for a in range(3)], axis=1)
+    return e, R, np.array(eB)
+
+
+def normal_angle_bound(lat, rest_vertices, control_points, jacobians, rest_normals, offsets=None):
+    """(V,) bound in degrees on the angle between the device's normals and
+    deformed_normals_exact of the same control points (the derivation above).
+    ``offsets``: the frame's offsets (their rounding adds to the control points')."""
+    dmax = 0.0 if offsets is None else float(np.abs(np.asarray(offsets, float)).max(initial=0.0)) * np.sqrt(3)
+    e, _, _ = _jacobian_errors(lat, rest_vertices, control_points, dmax)
+    n_v = len(e)
     J = np.asarray(jacobians, float).reshape(-1, 3, 3)
     cols = np.linalg.norm(J, axis=1)  # |c_a| per vertex, (V, 3)
     N0 = np.asarray(rest_normals, float)
@@ -245,3 +255,78 @@ def normal_angle_bound(lat, rest_vertices, control_points, jacobians, rest_norma
          + N0[:, 2:] * np.cross(Jc[0], Jc[1]))
     ratio = np.minimum(1.0, dn / np.linalg.norm(n, axis=1))
     return np.degrees(np.arcsin(ratio) + 2 * U32 + 2.0 ** -40)
+
+
+# --- the multiresolution frame (shaders/multires.comp) -----------------------------------
+#
+# Per fine vertex the device evaluates, at the foot point S(t_i) (inside the box, so the
+# basis values are >= 0 and sum to 1 per axis), the FFD value and Jacobian of control
+# points q rounded to float32 (u |q - o|), with the basis values and derivatives of
+# basis_reals.glsl: the Jacobian's columns err by e_a as above (_jacobian_errors), and
+# the value, a nested float32 sum of K_u K_v K_w terms with those values, by at most
+#   eS = R (eB_u + eB_v + eB_w) + (K_u + K_v + K_w + 4) u R        (times 1.01)
+# (basis values; the three levels of sums and products; the control points' rounding).
+# All further steps are float32 operations on rounded data (S_u, S_v, d and the six
+# coefficients each rounded once: u of themselves); with x~ = |x| + e_x, a product
+# rounded once per operation and the vector forms of componentwise bounds (Minkowski:
+# a componentwise bound sum_k w_k |v_k,comp| gives the norm bound sum_k w_k |v_k|):
+#   S'_u = sum_a S_u,a c_a:       e_su = sum_a |S_u,a| (e_a + 3 u c~_a) + u |S_u| sum_a |c_a|   (S'_v alike)
+#   c = S'_u x S'_v:              e_c  = e_su |S'_v| + |S'_u| e_sv + e_su e_sv + 4 u S'_u~ S'_v~
+#                                 (each component a_y b_z - a_z b_y: 3 roundings of at most |a| |b|)
+#   N_S' = c / |c|:               e_N  = 2 e_c / |c| + 4 u   (a unit vector's change; length and division)
+#   p' = S' + d N_S':             e_p  = eS + |d| e_N + 3 u |d| + u (|S' - o| + |d|)
+#   F_u = a_u S'_u + b_u S'_v + g_u N_S':
+#                                 e_fu = |a_u| e_su + |b_u| e_sv + |g_u| e_N + 4 u (|a_u| S'_u~ + |b_u| S'_v~ + |g_u|)
+#   n = F_u x F_v:                e_n  = e_fu |F_v| + |F_u| e_fv + e_fu e_fv + 4 u F_u~ F_v~
+# and the angle between the device's normal and the CPU's is at most asin(e_n / |n|) plus
+# 4 u for the final normalisation and 2^-40 for the CPU's double arithmetic (its values
+# err by a few 1e-16 relative). Every |.| without ~ is the CPU's (double) value.
+
+def multires_bounds(lat, frame_data, control_points, values, jacobians):
+    """Per vertex ((V,) world units, (V,) degrees): bounds on the distance between the
+    device's and the CPU's (MultiresFFD) vertices, and on the angle between their
+    approximate normals, for control points ``control_points`` (the derivation above).
+    ``frame_data``: ``Multires.frame_data()``; ``values``, ``jacobians``: the CPU's D and
+    J at the foot points (``MultiresFFD.foot_values_jacobians``). The foot points must
+    lie in the lattice box (the basis values are then non-negative)."""
+    foot = np.asarray(frame_data["foot_points"], float)
+    assert np.all(foot >= lat.box_min) and np.all(foot <= lat.box_max), "a foot point outside the box"
+    o = 0.5 * (lat.box_min + lat.box_max)
+    e, R, eB = _jacobian_errors(lat, foot, control_points)
+    Ks = [d + 1 for d in lat.degree]
+    eS = 1.01 * (R * eB.sum(axis=0) + (sum(Ks) + 4) * U32 * R)
+    J = np.asarray(jacobians, float).reshape(-1, 3, 3)
+    cn = np.linalg.norm(J, axis=1)  # |c_a|, (V, 3)
+    norm = lambda x: np.linalg.norm(x, axis=1)  # noqa: E731
+
+    def image(t):
+        t = np.asarray(t, float)
+        at = np.abs(t)
+        err = (at * (e + 3 * U32 * (cn + e))).sum(axis=1) + U32 * norm(t) * cn.sum(axis=1)
+        return np.einsum("vij,vj->vi", J, t), 1.01 * err
+
+    su1, e_su = image(frame_data["tangents_u"])
+    sv1, e_sv = image(frame_data["tangents_v"])
+    c = np.cross(su1, sv1)
+    lc = norm(c)
+    e_c = e_su * norm(sv1) + norm(su1) * e_sv + e_su * e_sv + 4 * U32 * (norm(su1) + e_su) * (norm(sv1) + e_sv)
+    e_N = np.where(e_c < lc, 2 * e_c / lc + 4 * U32, 2.0)
+    ns = c / lc[:, None]
+    d = np.abs(np.asarray(frame_data["displacements"], float))
+    S1 = np.asarray(values, float)
+    e_p = eS + d * e_N + 3 * U32 * d + U32 * (norm(S1 - o) + d) + 2.0 ** -40 * (norm(S1 - o) + d)
+    C = np.asarray(frame_data["normal_coefficients"], float)
+
+    def tangent(k):
+        a, b, g = C[:, 3 * k], C[:, 3 * k + 1], C[:, 3 * k + 2]
+        f = a[:, None] * su1 + b[:, None] * sv1 + g[:, None] * ns
+        err = (np.abs(a) * e_su + np.abs(b) * e_sv + np.abs(g) * e_N
+               + 4 * U32 * (np.abs(a) * (norm(su1) + e_su) + np.abs(b) * (norm(sv1) + e_sv) + np.abs(g)))
+        return f, 1.01 * err
+
+    fu, e_fu = tangent(0)
+    fv, e_fv = tangent(1)
+    n = norm(np.cross(fu, fv))
+    e_n = e_fu * norm(fv) + norm(fu) * e_fv + e_fu * e_fv + 4 * U32 * (norm(fu) + e_fu) * (norm(fv) + e_fv)
+    angle = np.degrees(np.arcsin(np.minimum(1.0, e_n / n)) + 4 * U32 + 2.0 ** -40)
+    return e_p, angle

@@ -1,11 +1,12 @@
-// The Vulkan backend: _core.VulkanDeformer (deform() as _core.Deformer.deform) and
-// _core.vulkan_devices().
+// The Vulkan backend: _core.VulkanDeformer (deform() as _core.Deformer.deform),
+// _core.VulkanMultires (deform() as _core.MultiresFFD.deform) and _core.vulkan_devices().
 
 #include <optional>
 
 #include "common.h"
 #include "vpffd/frame/deformer.h"
 #include "vpffd/backend/vulkan.h"
+#include "vpffd/backend/vulkan_multires.h"
 
 namespace vpffd::bindings {
 
@@ -22,6 +23,17 @@ py::dict device_to_python(const vulkan::DeviceInfo& d) {
   o["float64"] = d.float64;
   o["suitable"] = d.suitable;
   o["reason"] = d.reason;
+  return o;
+}
+
+py::dict timings_to_python(const vulkan::FrameTimings& t) {
+  py::dict o;
+  o["gpu_total_ms"] = t.gpu_total;
+  o["gpu_ffd_ms"] = t.gpu_ffd;
+  o["gpu_steps_ms"] = t.gpu_steps;
+  o["gpu_final_ms"] = t.gpu_final;
+  o["host_total_ms"] = t.host_total;
+  o["has_timestamps"] = t.has_timestamps;
   return o;
 }
 
@@ -78,14 +90,7 @@ void bind_vulkan(py::module_& m) {
                py::gil_scoped_release release;
                t = d.last_timings();
              }
-             py::dict o;
-             o["gpu_total_ms"] = t.gpu_total;
-             o["gpu_ffd_ms"] = t.gpu_ffd;
-             o["gpu_steps_ms"] = t.gpu_steps;
-             o["gpu_final_ms"] = t.gpu_final;
-             o["host_total_ms"] = t.host_total;
-             o["has_timestamps"] = t.has_timestamps;
-             return o;
+             return timings_to_python(t);
            })
       .def_property_readonly("vertex_buffer_handle", &VulkanDeformer::vertex_buffer_handle)
       .def_property_readonly("index_buffer_handle", &VulkanDeformer::index_buffer_handle)
@@ -112,6 +117,51 @@ void bind_vulkan(py::module_& m) {
           "One frame (see vpffd::vulkan::VulkanDeformer::deform), the options as for Deformer.deform. normals=True "
           "adds 'normals': the (V, 3) unit normals of the deformed surface, computed on the device in the same "
           "submission.");
+
+  using vulkan::VulkanMultires;
+  py::class_<VulkanMultires, std::unique_ptr<VulkanMultires>>(
+      m, "VulkanMultires", "The multiresolution frame of a decomposition's base FFD on a Vulkan device.")
+      .def(py::init([](std::shared_ptr<Multires> mr, const Lattice& L, const std::string& device,
+                       const std::string& precision) {
+             const vulkan::Precision prec = vulkan::parse_precision(precision);
+             py::gil_scoped_release release;
+             return std::make_unique<VulkanMultires>(std::move(mr), L, device, prec);
+           }),
+           py::arg("multires"), py::arg("lattice"), py::arg("device") = "", py::arg("precision") = "auto")
+      .def_property_readonly_static("frame_bytes_per_vertex",
+                                    [](py::object) { return VulkanMultires::frame_bytes_per_vertex; })
+      .def_property_readonly("device", [](const VulkanMultires& d) { return device_to_python(d.device()); })
+      .def_property_readonly("origin", &VulkanMultires::origin)
+      .def_property_readonly("scale", &VulkanMultires::scale)
+      .def_property_readonly(
+          "precision", [](const VulkanMultires& d) { return std::string(vulkan::precision_name(d.precision())); })
+      .def_property_readonly("vertex_buffer_handle", &VulkanMultires::vertex_buffer_handle)
+      .def_property_readonly("normal_buffer_handle", &VulkanMultires::normal_buffer_handle)
+      .def_property_readonly("vertex_order",
+                             [](const VulkanMultires& d) {
+                               const auto& o = d.vertex_order();
+                               return py::array_t<std::int32_t>(static_cast<py::ssize_t>(o.size()), o.data());
+                             })
+      .def("last_timings",
+           [](const VulkanMultires& d) {
+             vulkan::FrameTimings t;
+             {
+               py::gil_scoped_release release;
+               t = d.last_timings();
+             }
+             return timings_to_python(t);
+           })
+      .def(
+          "deform",
+          [](VulkanMultires& d, RefV P) {
+            MultiresFrame f;
+            {
+              py::gil_scoped_release release;
+              f = d.deform(P);
+            }
+            return py::make_tuple(py::cast(std::move(f.vertices)), py::cast(std::move(f.normals)));
+          },
+          py::arg("control_points"), "(vertices (V, 3), approximate unit normals (V, 3)), input order.");
 }
 
 }  // namespace vpffd::bindings

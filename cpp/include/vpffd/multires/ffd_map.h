@@ -115,6 +115,10 @@ class MultiresFFD {
 
   const Multires& multires() const { return *m_; }
   const Lattice& lattice() const { return lattice_; }
+  /// The foot points' embedding in the lattice (span and local parameter per axis),
+  /// and the lattice's per-span power forms: what a device evaluates per frame.
+  const Embedding& embedding() const { return embedding_; }
+  const BasisTables& tables() const { return tables_; }
   /// Bytes a frame reads per vertex: the decomposition's frame data without the
   /// foot point (replaced by its embedding): 128 - 24 + 36 = 140.
   static constexpr int frame_bytes_per_vertex = Multires::frame_bytes_per_vertex - 3 * int(sizeof(double)) +
@@ -162,13 +166,14 @@ class MultiresFFD {
     });
   }
 
- private:
+  /// @throws InvalidInputError unless P has one finite row per control point
   void check_control_points(const Eigen::Ref<const RowMatrixX3d>& P) const {
     VPFFD_CHECK(P.rows() == lattice_.n_control_points(), "MultiresFFD: ", P.rows(),
                 " control points, the lattice has ", lattice_.n_control_points());
     VPFFD_CHECK(P.allFinite(), "MultiresFFD: control points contain NaN or Inf");
   }
 
+ private:
   std::shared_ptr<const Multires> m_;
   Lattice lattice_;
   BasisTables tables_;

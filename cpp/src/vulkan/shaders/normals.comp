@@ -14,36 +14,15 @@
 // span, dtau/du * du/dy in device units). Only directions matter, but the axes' scales
 // must be right relative to each other.
 //
-// Why the basis is evaluated in reals here (the FFD's is float32): a float32 power form
-// errs by up to ~(2d + 1) sum_q |c_q| u, and for clamped cubic spans that bound alone
-// gives an angle bound of ~0.1 degree; evaluated in reals from real coefficients and
-// rounded once to float32, a basis value or derivative errs by u of itself (plus the
-// float32 parameter's rounding), which proves the issue's 0.01 degree
-// (tests/python/gpu_bounds.py, normal_angle_bound). 3 K^2 real operations per vertex,
-// against the K^3 float32 ones of the Jacobian.
+// Why the basis is evaluated in reals here (the FFD's is float32): see basis_reals.glsl;
+// with it the angle bound proves the issue's 0.01 degree (tests/python/gpu_bounds.py,
+// normal_angle_bound). 3 K^2 real operations per vertex, against the K^3 float32 ones
+// of the Jacobian.
 #include "common.glsl"
 layout(local_size_x = VPFFD_GROUP) in;
 
-// Values b and derivatives db (d/dy: d/dtau times the span's scale `s`) of one axis's
-// K functions at local parameter t, evaluated in reals and rounded once.
-void eval_axis_d(int off, int K, int first, float t, real s, out float b[KMAX], out float db[KMAX]) {
-  const int base = off + first * K * K;
-  const real rt = r_f(t);
-  for (int r = 0; r < KMAX; ++r) {
-    if (r >= K) {
-      b[r] = 0.0;
-      db[r] = 0.0;
-      continue;
-    }
-    real v = nrm_tab[base + (K - 1) * K + r], dv = r_zero();
-    for (int q = K - 2; q >= 0; --q) {
-      dv = r_add(r_mul(dv, rt), v);
-      v = r_add(r_mul(v, rt), nrm_tab[base + q * K + r]);
-    }
-    b[r] = r_to_float(v);
-    db[r] = r_to_float(r_mul(dv, s));
-  }
-}
+#define BASIS_TAB nrm_tab
+#include "basis_reals.glsl"
 
 void main() {
   const bool offsets = (pc.flags & 8) != 0;

@@ -1,0 +1,98 @@
+#pragma once
+/// @file vulkan_multires.h
+/// The multiresolution frame (paper 002, eq. 1 and eqs. 6-7) on a Vulkan device: the
+/// GPU counterpart of MultiresFFD (multires/ffd_map.h), part of target vpffd::vulkan.
+///
+/// Per fine vertex, one compute invocation with no neighbours: S' = D(S(t_i)),
+/// S'_u = J_D S_u, S'_v = J_D S_v (B-spline values and first derivatives at the foot
+/// point), N_S' = unit(S'_u x S'_v), p' = S' + d N_S', and the approximate normal of
+/// eqs. 6-7. The foot points are fixed rest-space points, so their embedding (span and
+/// local parameter per axis), S_u, S_v, d and the six coefficients are uploaded once
+/// (frame_bytes_per_vertex); a frame uploads the control points (12 bytes each), runs
+/// one dispatch in one submission and reads back positions and normals (24 bytes per
+/// vertex). The control points are whatever the caller passes: a volume-corrected
+/// frame gets them from a VulkanDeformer (or the CPU Deformer) of the base or fine
+/// mesh first, a separate submission.
+///
+/// Precision: control points, positions, tangents, d and the coefficients are float32
+/// on the device (positions relative to origin(), in units of scale(), as the
+/// VulkanDeformer's); the basis values and derivatives are evaluated in float64 or
+/// float-float (Precision) and rounded once to float32. The error against the CPU's
+/// MultiresFFD is bounded per vertex in tests/python/gpu_bounds.py (multires_bounds):
+/// for a cubic lattice a worst case of a few 1e-6 of the box diagonal for positions
+/// (about 26 float32 roundings of terms up to half the diagonal, plus |d| times the
+/// normal's direction error) and below 0.01 degree for the normals of a moderate edit;
+/// lavapipe's errors are about 5e-8 of the diagonal and 2e-5 degree.
+///
+/// Threads: deform() and last_timings() may be called from several threads; frames run
+/// one at a time. The device is shared with every VulkanDeformer on it.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "vpffd/backend/vulkan.h"
+#include "vpffd/multires/ffd_map.h"
+
+namespace vpffd::vulkan {
+
+/// FFD of a decomposition's base with the fine mesh rebuilt per vertex on a device.
+class VulkanMultires {
+ public:
+  /// Embeds the foot points (on the host, once, as MultiresFFD) and uploads the frame data.
+  /// @param[in] m       the decomposition (shared, not copied)
+  /// @param[in] L       lattice (its box should contain the base mesh; foot points
+  ///                    outside follow the boundary polynomial pieces, as on the CPU)
+  /// @param[in] device  as VulkanDeformer: "" (first suitable), an index, or part of a name
+  /// @param[in] precision  how the basis is evaluated (Float64 needs shaderFloat64)
+  /// @throws InvalidInputError for a bad lattice (as MultiresFFD) or a mesh too large
+  ///         for 32-bit device indices, BackendUnavailableError for a periodic lattice
+  ///         or when no Vulkan device is found, DeviceError when a Vulkan call fails
+  VulkanMultires(std::shared_ptr<const Multires> m, Lattice L, const std::string& device = "",
+                 Precision precision = Precision::Auto);
+  ~VulkanMultires();
+  VulkanMultires(const VulkanMultires&) = delete;
+  VulkanMultires& operator=(const VulkanMultires&) = delete;
+
+  /// One frame with control points P (N x 3, world units): the fine vertices and
+  /// their approximate unit normals (zero rows where the deformed tangents are
+  /// parallel), input vertex order.
+  /// @throws InvalidInputError for a wrong row count, NaN or Inf, or a control point
+  ///         more than 2^100 box half-diagonals from the box centre (float32 range on
+  ///         the device); DeviceError on a device failure
+  MultiresFrame deform(const Eigen::Ref<const RowMatrixX3d>& P);
+
+  /// The CPU counterpart on the same decomposition and lattice (its embedding is the
+  /// device's).
+  const MultiresFFD& cpu() const;
+  const DeviceInfo& device() const;
+  /// Float64 or FloatFloat (never Auto).
+  Precision precision() const;
+  /// The last frame: gpu_total (its dispatch and copies, when the queue has
+  /// timestamps) and host_total (deform(), end to end), milliseconds.
+  FrameTimings last_timings() const;
+  /// Reference point (the lattice box centre) and unit (the power of two nearest to its
+  /// half diagonal) of the device positions, as VulkanDeformer's.
+  const Vector3d& origin() const;
+  double scale() const;
+
+  /// Device bytes per vertex: 3 span indices (12) and 16 floats of frame data (64),
+  /// uploaded once; the outputs add 24.
+  static constexpr int frame_bytes_per_vertex = 3 * 4 + 16 * 4;
+
+  /// For a renderer on the same VkDevice: raw VkBuffer handles of the positions
+  /// (#V x 3 float32, (p' - origin()) / scale()) and normals (#V x 3 float32) of the
+  /// last frame, in the device's vertex order: device vertex i is input vertex
+  /// vertex_order()[i] (foot points sorted by lattice cell, so neighbouring
+  /// invocations read the same control points).
+  std::uint64_t vertex_buffer_handle() const;
+  std::uint64_t normal_buffer_handle() const;
+  const std::vector<std::int32_t>& vertex_order() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vpffd::vulkan

@@ -1,0 +1,406 @@
+// VulkanMultires: the multiresolution frame (shaders/multires.comp) on a device shared
+// with the VulkanDeformers: its own buffers, descriptor set, pipeline, command buffer
+// and fence. Set-up embeds the foot points on the host (the CPU MultiresFFD does it,
+// so both evaluate the same spans), sorts the vertices by lattice cell and uploads the
+// frame data once; a frame is: upload copy of the control points -> dispatch ->
+// copies of positions and normals to the host, one submission of a command buffer
+// recorded once.
+
+#include "vpffd/backend/vulkan_multires.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <numeric>
+
+#include "context.h"
+#include "deformer_impl.h"  // put_reals, ms_since
+#include "shaders/multires_layout.h"
+#include "vk_handle.h"
+#include "vpffd/shaders/multires_spirv.h"
+
+namespace vpffd::vulkan {
+
+using detail::Buffer;
+
+struct VulkanMultires::Impl {
+  std::shared_ptr<detail::Device> dev;  // first: destroyed last
+  std::unique_ptr<MultiresFFD> cpu;
+  VkDevice d = VK_NULL_HANDLE;
+  Precision precision = Precision::Float64;
+  bool ff = false;
+  Index nv = 0, N = 0;
+  std::uint32_t groups = 1;
+  Vector3d origin;
+  double scale = 1.0;
+  std::vector<std::int32_t> order;  // device vertex i is input vertex order[i]
+
+  enum Buf { bP, bTab, bSpan, bData, bX, bN, kNumBuf };
+  static_assert(bP == VPFFD_MR_B_P && bTab == VPFFD_MR_B_TAB && bSpan == VPFFD_MR_B_SPAN &&
+                    bData == VPFFD_MR_B_DATA && bX == VPFFD_MR_B_X && bN == VPFFD_MR_B_N &&
+                    kNumBuf == VPFFD_MR_B_COUNT,
+                "the bindings of shaders/multires_layout.h");
+  Buffer buf[kNumBuf];
+  Buffer up_P, rb_X, rb_N;
+
+  Owned<VkDescriptorSetLayout> dsl;
+  Owned<VkPipelineLayout> layout;
+  Owned<VkDescriptorPool> pool;
+  VkDescriptorSet set = VK_NULL_HANDLE;  // freed with the pool
+  Owned<VkShaderModule> module;
+  Owned<VkPipeline> pipe;
+  Owned<VkCommandPool> cmd_pool;
+  VkCommandBuffer frame_cb = VK_NULL_HANDLE;  // recorded once, submitted every frame
+  Owned<VkFence> fence;
+  Owned<VkQueryPool> queries;
+
+  mutable std::mutex mutex;  // one frame at a time
+  bool pending = false;      // a submission whose wait failed may still run
+  FrameTimings timings;
+
+  ~Impl() {
+    if (d && pending) vkWaitForFences(d, 1, &fence.get(), VK_TRUE, UINT64_MAX);
+  }
+
+  void build(const std::string& selector, Precision wanted);
+  void create_pipeline(const std::array<std::int32_t, 9>& spec);
+  void record_frame();
+  void submit_and_wait(VkCommandBuffer cb);
+};
+
+void VulkanMultires::Impl::submit_and_wait(VkCommandBuffer cb) {
+  if (pending) {
+    const VkResult r = vkWaitForFences(d, 1, &fence.get(), VK_TRUE, 600ull * 1000 * 1000 * 1000);
+    if (r == VK_TIMEOUT) throw DeviceError("vulkan: an earlier submission is still running after 600 s (device hung?)");
+    detail::check(r, "vkWaitForFences");
+    pending = false;
+    detail::check(vkResetFences(d, 1, &fence.get()), "vkResetFences");
+  }
+  VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+  si.commandBufferCount = 1;
+  si.pCommandBuffers = &cb;
+  {
+    std::lock_guard<std::mutex> lock(dev->queue_mutex);
+    detail::check(vkQueueSubmit(dev->queue, 1, &si, fence.get()), "vkQueueSubmit");
+  }
+  pending = true;
+  const VkResult r = vkWaitForFences(d, 1, &fence.get(), VK_TRUE, 600ull * 1000 * 1000 * 1000);
+  if (r == VK_TIMEOUT) throw DeviceError("vulkan: vkWaitForFences timed out after 600 s (device hung?)");
+  detail::check(r, "vkWaitForFences");
+  pending = false;
+  detail::check(vkResetFences(d, 1, &fence.get()), "vkResetFences");
+}
+
+void VulkanMultires::Impl::create_pipeline(const std::array<std::int32_t, 9>& spec) {
+  VkDescriptorSetLayoutBinding b[kNumBuf];
+  for (int i = 0; i < kNumBuf; ++i)
+    b[i] = {static_cast<std::uint32_t>(i), VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  li.bindingCount = kNumBuf;
+  li.pBindings = b;
+  VkDescriptorSetLayout dsl_h = VK_NULL_HANDLE;
+  detail::check(vkCreateDescriptorSetLayout(d, &li, nullptr, &dsl_h), "vkCreateDescriptorSetLayout");
+  dsl.adopt(d, dsl_h, vkDestroyDescriptorSetLayout);
+  VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  pli.setLayoutCount = 1;
+  pli.pSetLayouts = &dsl.get();
+  VkPipelineLayout layout_h = VK_NULL_HANDLE;
+  detail::check(vkCreatePipelineLayout(d, &pli, nullptr, &layout_h), "vkCreatePipelineLayout");
+  layout.adopt(d, layout_h, vkDestroyPipelineLayout);
+
+  VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kNumBuf};
+  VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  pi.maxSets = 1;
+  pi.poolSizeCount = 1;
+  pi.pPoolSizes = &ps;
+  VkDescriptorPool pool_h = VK_NULL_HANDLE;
+  detail::check(vkCreateDescriptorPool(d, &pi, nullptr, &pool_h), "vkCreateDescriptorPool");
+  pool.adopt(d, pool_h, vkDestroyDescriptorPool);
+  VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  ai.descriptorPool = pool.get();
+  ai.descriptorSetCount = 1;
+  ai.pSetLayouts = &dsl.get();
+  detail::check(vkAllocateDescriptorSets(d, &ai, &set), "vkAllocateDescriptorSets");
+  VkDescriptorBufferInfo info[kNumBuf];
+  VkWriteDescriptorSet w[kNumBuf];
+  for (int i = 0; i < kNumBuf; ++i) {
+    info[i] = {buf[i].handle(), 0, VK_WHOLE_SIZE};
+    w[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    w[i].dstSet = set;
+    w[i].dstBinding = static_cast<std::uint32_t>(i);
+    w[i].descriptorCount = 1;
+    w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    w[i].pBufferInfo = &info[i];
+  }
+  vkUpdateDescriptorSets(d, kNumBuf, w, 0, nullptr);
+
+  constexpr std::uint32_t kSpec = 9;
+  VkSpecializationMapEntry entries[kSpec];
+  for (std::uint32_t i = 0; i < kSpec; ++i) entries[i] = {i, i * 4u, 4};
+  VkSpecializationInfo si{kSpec, entries, sizeof(spec), spec.data()};
+  const Spv& code = (ff ? kMultiresShadersFF : kMultiresShaders64)[kMultires];
+  VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  mi.codeSize = code.bytes;
+  mi.pCode = code.code;
+  VkShaderModule module_h = VK_NULL_HANDLE;
+  detail::check(vkCreateShaderModule(d, &mi, nullptr, &module_h), "vkCreateShaderModule");
+  module.adopt(d, module_h, vkDestroyShaderModule);
+  VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+  ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+  ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  ci.stage.module = module.get();
+  ci.stage.pName = "main";
+  ci.stage.pSpecializationInfo = &si;
+  ci.layout = layout.get();
+  VkPipeline pipe_h = VK_NULL_HANDLE;
+  const VkResult r = vkCreateComputePipelines(d, VK_NULL_HANDLE, 1, &ci, nullptr, &pipe_h);
+  if (r != VK_SUCCESS)
+    throw DeviceError(std::string("vulkan: vkCreateComputePipelines (") + code.name +
+                      ") failed: " + detail::result_string(r));
+  pipe.adopt(d, pipe_h, vkDestroyPipeline);
+}
+
+void VulkanMultires::Impl::record_frame() {
+  VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  cai.commandPool = cmd_pool.get();
+  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cai.commandBufferCount = 1;
+  detail::check(vkAllocateCommandBuffers(d, &cai, &frame_cb), "vkAllocateCommandBuffers");
+  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  detail::check(vkBeginCommandBuffer(frame_cb, &bi), "vkBeginCommandBuffer");
+  const VkPipelineStageFlags cs = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, tr = VK_PIPELINE_STAGE_TRANSFER_BIT;
+  auto barrier = [&](VkAccessFlags src, VkAccessFlags dst, VkPipelineStageFlags from, VkPipelineStageFlags to) {
+    VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    mb.srcAccessMask = src;
+    mb.dstAccessMask = dst;
+    vkCmdPipelineBarrier(frame_cb, from, to, 0, 1, &mb, 0, nullptr, 0, nullptr);
+  };
+  if (dev->timestamps) {
+    vkCmdResetQueryPool(frame_cb, queries.get(), 0, 2);
+    vkCmdWriteTimestamp(frame_cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries.get(), 0);
+  }
+  // The previous frame's copies read the outputs this dispatch overwrites.
+  barrier(VK_ACCESS_TRANSFER_READ_BIT, VK_ACCESS_SHADER_WRITE_BIT, tr, cs);
+  const VkBufferCopy cp{0, 0, 12 * VkDeviceSize(N)};
+  vkCmdCopyBuffer(frame_cb, up_P.handle(), buf[bP].handle(), 1, &cp);
+  barrier(VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, tr, cs);
+  vkCmdBindPipeline(frame_cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipe.get());
+  vkCmdBindDescriptorSets(frame_cb, VK_PIPELINE_BIND_POINT_COMPUTE, layout.get(), 0, 1, &set, 0, nullptr);
+  vkCmdDispatch(frame_cb, groups, 1, 1);
+  barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT, cs, tr);
+  const VkBufferCopy cx{0, 0, 12 * VkDeviceSize(nv)};
+  vkCmdCopyBuffer(frame_cb, buf[bX].handle(), rb_X.handle(), 1, &cx);
+  vkCmdCopyBuffer(frame_cb, buf[bN].handle(), rb_N.handle(), 1, &cx);
+  barrier(VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_HOST_READ_BIT, tr, VK_PIPELINE_STAGE_HOST_BIT);
+  if (dev->timestamps) vkCmdWriteTimestamp(frame_cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries.get(), 1);
+  detail::check(vkEndCommandBuffer(frame_cb), "vkEndCommandBuffer");
+}
+
+void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) {
+  dev = detail::open_device(selector);
+  d = dev->handle;
+  if (wanted == Precision::Float64 && !dev->info.float64)
+    throw BackendUnavailableError("vulkan: device " + dev->info.name +
+                                  " has no shaderFloat64: use precision 'float-float' or 'auto'");
+  precision = wanted == Precision::Auto ? (dev->info.float64 ? Precision::Float64 : Precision::FloatFloat) : wanted;
+  ff = precision == Precision::FloatFloat;
+  const Multires& m = cpu->multires();
+  const Lattice& L = cpu->lattice();
+  const BasisTables& T = cpu->tables();
+  const Embedding& E = cpu->embedding();
+  nv = m.n_vertices();
+  N = L.n_control_points();
+  if (nv * Index(MR_ROWS) >= (Index(1) << 31))
+    throw InvalidInputError("VulkanMultires: the mesh is too large for 32-bit device indices");
+  origin = 0.5 * (L.box_min + L.box_max);
+  {
+    const double half = 0.5 * (L.box_max - L.box_min).norm();
+    scale = std::isfinite(half) && half > 0 ? std::exp2(std::round(std::log2(half))) : 1.0;
+  }
+
+  // Device order: foot points sorted by cell (stable: input order within a cell).
+  std::vector<std::int32_t> cell(nv);
+  for (Index i = 0; i < nv; ++i) cell[i] = vpffd::detail::cell_index(T, E, i);
+  order.resize(nv);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) { return cell[a] < cell[b]; });
+
+  std::vector<std::int32_t> span(3 * nv);
+  std::vector<float> data(size_t(MR_ROWS) * nv);
+  auto put = [&](int r, Index i, double x) { data[size_t(r) * nv + i] = static_cast<float>(x); };
+  for (Index i = 0; i < nv; ++i) {
+    const Index v = order[i];
+    for (int a = 0; a < 3; ++a) {
+      span[a * nv + i] = E.span[a][v] - T.poly[a].degree;
+      put(MR_TAU + a, i, E.tau[a][v]);
+      put(MR_SU + a, i, m.su[a][v] / scale);
+      put(MR_SV + a, i, m.sv[a][v] / scale);
+    }
+    put(MR_D, i, m.d[v] / scale);
+    // a, b multiply tangents (now in scale units), g the unit normal: a, b times scale.
+    for (int k = 0; k < 6; ++k) put(MR_COEF + k, i, k % 3 == 2 ? m.coef[k][v] : m.coef[k][v] * scale);
+  }
+  for (float x : data)
+    if (!std::isfinite(x))
+      throw InvalidInputError("VulkanMultires: the decomposition's frame data exceeds float32's range in device "
+                              "units (degenerate base triangles?)");
+  // The power forms, then d tau / d y in device units per axis and span (normals.comp's table).
+  std::vector<double> tab;
+  std::array<std::int32_t, 3> poly_off{};
+  {
+    const Vector3d du_dx = parameter_scale(L);
+    for (int a = 0; a < 3; ++a) {
+      poly_off[a] = static_cast<std::int32_t>(tab.size());
+      tab.insert(tab.end(), T.poly[a].coef.begin(), T.poly[a].coef.end());
+    }
+    for (int a = 0; a < 3; ++a)
+      for (double w : T.poly[a].inv_width) tab.push_back(w * du_dx[a] * scale);
+  }
+  std::vector<double> tab_dev(tab.size());  // 8 bytes per real in either precision
+  detail::put_reals(tab_dev.data(), tab.data(), tab.size(), ff);
+
+  auto mk = [&](Buf i, size_t bytes, const char* what) { buf[i] = Buffer(*dev, bytes, Buffer::DeviceLocal, what); };
+  mk(bP, 12 * N, "control points");
+  mk(bTab, 8 * tab_dev.size(), "basis table");
+  mk(bSpan, 4 * span.size(), "foot point spans");
+  mk(bData, 4 * data.size(), "multiresolution frame data");
+  mk(bX, 12 * nv, "multiresolution vertices");
+  mk(bN, 12 * nv, "multiresolution normals");
+  up_P = Buffer(*dev, 12 * N, Buffer::Upload, "control points (upload)");
+  rb_X = Buffer(*dev, 12 * nv, Buffer::Readback, "multiresolution vertices (read-back)");
+  rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "multiresolution normals (read-back)");
+
+  VkCommandPoolCreateInfo cpi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  cpi.queueFamilyIndex = dev->family;
+  VkCommandPool cmd_pool_h = VK_NULL_HANDLE;
+  detail::check(vkCreateCommandPool(d, &cpi, nullptr, &cmd_pool_h), "vkCreateCommandPool");
+  cmd_pool.adopt(d, cmd_pool_h, vkDestroyCommandPool);
+  VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  VkFence fence_h = VK_NULL_HANDLE;
+  detail::check(vkCreateFence(d, &fi, nullptr, &fence_h), "vkCreateFence");
+  fence.adopt(d, fence_h, vkDestroyFence);
+  if (dev->timestamps) {
+    VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+    qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    qi.queryCount = 2;
+    VkQueryPool queries_h = VK_NULL_HANDLE;
+    detail::check(vkCreateQueryPool(d, &qi, nullptr, &queries_h), "vkCreateQueryPool");
+    queries.adopt(d, queries_h, vkDestroyQueryPool);
+  }
+
+  // One-time upload through staging buffers, one submission.
+  {
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    cai.commandPool = cmd_pool.get();
+    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cai.commandBufferCount = 1;
+    detail::check(vkAllocateCommandBuffers(d, &cai, &cb), "vkAllocateCommandBuffers");
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    detail::check(vkBeginCommandBuffer(cb, &bi), "vkBeginCommandBuffer");
+    std::vector<Buffer> staging;
+    auto upload = [&](Buf i, const void* src, size_t bytes) {
+      staging.emplace_back(*dev, bytes, Buffer::Upload, "staging");
+      std::memcpy(staging.back().mapped(), src, bytes);
+      const VkBufferCopy c{0, 0, bytes};
+      vkCmdCopyBuffer(cb, staging.back().handle(), buf[i].handle(), 1, &c);
+    };
+    upload(bTab, tab_dev.data(), 8 * tab_dev.size());
+    upload(bSpan, span.data(), 4 * span.size());
+    upload(bData, data.data(), 4 * data.size());
+    detail::check(vkEndCommandBuffer(cb), "vkEndCommandBuffer");
+    submit_and_wait(cb);
+    vkFreeCommandBuffers(d, cmd_pool.get(), 1, &cb);
+  }
+
+  const auto dims = L.dims();
+  create_pipeline({T.order[0], T.order[1], T.order[2], dims[0], dims[1], dims[2], static_cast<std::int32_t>(nv),
+                   poly_off[1], poly_off[2]});
+  groups = static_cast<std::uint32_t>(
+      std::clamp<Index>((nv + VPFFD_MR_GROUP - 1) / VPFFD_MR_GROUP, 1, dev->limits.maxComputeWorkGroupCount[0]));
+  record_frame();
+}
+
+// ---- public API ----------------------------------------------------------------
+
+VulkanMultires::VulkanMultires(std::shared_ptr<const Multires> m, Lattice L, const std::string& device,
+                               Precision precision)
+    : impl_(std::make_unique<Impl>()) {
+  if (L.any_periodic())
+    throw BackendUnavailableError(
+        "VulkanMultires: periodic lattices run on the CPU backends only (the device has no periodic ties)");
+  // MultiresFFD validates the decomposition and the lattice and embeds the foot points.
+  impl_->cpu = std::make_unique<MultiresFFD>(std::move(m), std::move(L));
+  impl_->build(device, precision);
+}
+
+VulkanMultires::~VulkanMultires() = default;
+
+const MultiresFFD& VulkanMultires::cpu() const { return *impl_->cpu; }
+const DeviceInfo& VulkanMultires::device() const { return impl_->dev->info; }
+Precision VulkanMultires::precision() const { return impl_->precision; }
+FrameTimings VulkanMultires::last_timings() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->timings;
+}
+const Vector3d& VulkanMultires::origin() const { return impl_->origin; }
+double VulkanMultires::scale() const { return impl_->scale; }
+std::uint64_t VulkanMultires::vertex_buffer_handle() const {
+  return reinterpret_cast<std::uint64_t>(impl_->buf[Impl::bX].handle());
+}
+std::uint64_t VulkanMultires::normal_buffer_handle() const {
+  return reinterpret_cast<std::uint64_t>(impl_->buf[Impl::bN].handle());
+}
+const std::vector<std::int32_t>& VulkanMultires::vertex_order() const { return impl_->order; }
+
+MultiresFrame VulkanMultires::deform(const Eigen::Ref<const RowMatrixX3d>& P) {
+  const auto t_start = std::chrono::steady_clock::now();
+  Impl& m = *impl_;
+  m.cpu->check_control_points(P);
+  std::lock_guard<std::mutex> lock(m.mutex);
+  float* p = static_cast<float*>(m.up_P.mapped());
+  // Device coordinates up to 2^100 box half-diagonals: the shader's products and
+  // sums of them (basis derivatives are a few span widths^-1) stay far from float32's
+  // 3.4e38, so no frame overflows into Inf silently.
+  constexpr double kMaxDevice = 0x1p100;
+  for (Index c = 0; c < m.N; ++c)
+    for (int a = 0; a < 3; ++a) {
+      const double y = (P(c, a) - m.origin[a]) / m.scale;
+      if (!(std::abs(y) <= kMaxDevice))
+        throw InvalidInputError(vpffd::detail::concat(
+            "VulkanMultires: control point ", c, " is beyond float32's range relative to the lattice (", P(c, a),
+            " along axis ", a, ", more than 2^100 box half-diagonals from its centre)"));
+      p[3 * c + a] = static_cast<float>(y);
+    }
+  m.submit_and_wait(m.frame_cb);
+  FrameTimings tm;
+  if (m.dev->timestamps) {
+    std::uint64_t ts[2] = {};
+    detail::check(vkGetQueryPoolResults(m.d, m.queries.get(), 0, 2, sizeof(ts), ts, sizeof(std::uint64_t),
+                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+                  "vkGetQueryPoolResults");
+    tm.has_timestamps = true;
+    tm.gpu_total = double(ts[1] - ts[0]) * m.dev->timestamp_period_ns * 1e-6;
+  }
+  MultiresFrame out;
+  out.vertices.resize(m.nv, 3);
+  out.normals.resize(m.nv, 3);
+  const float* x = static_cast<const float*>(m.rb_X.mapped());
+  const float* n = static_cast<const float*>(m.rb_N.mapped());
+  for (Index i = 0; i < m.nv; ++i) {
+    const Index v = m.order[i];
+    for (int a = 0; a < 3; ++a) {
+      out.vertices(v, a) = double(x[3 * i + a]) * m.scale + m.origin[a];
+      out.normals(v, a) = double(n[3 * i + a]);
+    }
+  }
+  tm.host_total = detail::ms_since(t_start);
+  m.timings = tm;
+  return out;
+}
+
+}  // namespace vpffd::vulkan
