@@ -204,6 +204,18 @@ struct RayScene::Impl {
   // V in the normalised frame, as float32, into Embree's vertex buffer.
   void write_vertices();
 
+  // Shading normals of V, made by the first render after a move (picking never
+  // needs them); the vertex-face lists once, as the faces never change.
+  std::mutex normals_mutex;
+  std::unique_ptr<VertexFaces> vf;
+  RowMatrixX3d normals;  // 0 rows: not made for the current V
+  const RowMatrixX3d& shading_normals() {
+    std::lock_guard<std::mutex> lock(normals_mutex);
+    if (!vf) vf = std::make_unique<VertexFaces>(vertex_faces(F, V.rows()));
+    if (normals.rows() != V.rows()) normals = vertex_normals(V, F, *vf);
+    return normals;
+  }
+
   // A ray carried into the normalised frame, ready for Embree.
   struct Prepared {
     enum Status { kMiss, kCast, kRefused } status = kMiss;
@@ -451,6 +463,7 @@ void RayScene::set_vertices(const Eigen::Ref<const RowMatrixX3d>& V) {
   impl_->s = s;
   impl_->inv_s = inv_s;
   impl_->scale = scale;
+  impl_->normals.resize(0, 3);
   impl_->write_vertices();
   rtcUpdateGeometryBuffer(impl_->geom, RTC_BUFFER_TYPE_VERTEX, 0);
   rtcCommitGeometry(impl_->geom);
@@ -530,7 +543,7 @@ std::vector<std::uint8_t> RayScene::render(const RenderCamera& cam, const Render
       VPFFD_CHECK(opt.lines(e, c) >= 0 && opt.lines(e, c) < opt.points.rows(), "render: line ", e,
                   " refers to point ", opt.lines(e, c), ", there are ", opt.points.rows());
   const Frame fr = camera_frame(cam, W, H);
-  const RowMatrixX3d N = opt.normals.rows() ? RowMatrixX3d(opt.normals) : vertex_normals(impl_->V, impl_->F);
+  const RowMatrixX3d& N = opt.normals.rows() ? opt.normals : impl_->shading_normals();
   const bool colored = opt.vertex_colors.rows() > 0;
 
   // Two lights fixed to the camera: a head light and a key light from the upper
@@ -579,62 +592,56 @@ std::vector<std::uint8_t> RayScene::render(const RenderCamera& cam, const Render
   // or a colour step); elsewhere the centre ray's smooth shading stands for the
   // S x S average. With adaptive = false every pixel gets S x S rays.
   std::vector<unsigned char> refine(static_cast<size_t>(W) * H, S > 1 && !opt.adaptive ? 1 : 0);
-#ifdef _OPENMP
-#pragma omp parallel
-#endif
-  {
+  auto store = [&](size_t i, float dist, const Vector3d& col) {
+    depth[i] = dist;
+    for (int k = 0; k < 3; ++k) rgb[3 * i + k] = static_cast<float>(col[k]);
+  };
+  // Each pass visits every pixel (x, y, flat index i) once, rows shared out
+  // among the threads of the enclosing parallel region.
+  auto each_pixel = [&](auto&& visit) {
 #ifdef _OPENMP
 #pragma omp for schedule(dynamic, 4)
 #endif
     for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x) {
-        const size_t i = static_cast<size_t>(y) * W + x;
-        if (refine[i]) continue;
-        Vector3d col;
-        depth[i] = sample(x, y, col);
-        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = static_cast<float>(col[k]);
-      }
-    if (S > 1 && opt.adaptive) {
+      for (int x = 0; x < W; ++x) visit(x, y, static_cast<size_t>(y) * W + x);
+  };
+  // A pixel differs from a 4-neighbour j when one is background and the other
+  // not, across a depth jump of 2 %, or across a colour step of 0.03.
+  auto differs = [&](size_t i, size_t j) {
+    const float d0 = depth[i], d1 = depth[j];
+    if (std::isinf(d0) != std::isinf(d1)) return true;
+    if (!std::isinf(d0) && std::abs(d0 - d1) > 0.02f * std::min(d0, d1)) return true;
+    for (int c = 0; c < 3; ++c)
+      if (std::abs(rgb[3 * i + c] - rgb[3 * j + c]) > 0.03f) return true;
+    return false;
+  };
 #ifdef _OPENMP
-#pragma omp for schedule(static)
+#pragma omp parallel
 #endif
-      for (int y = 0; y < H; ++y)
-        for (int x = 0; x < W; ++x) {
-          const size_t i = static_cast<size_t>(y) * W + x;
-          const float d0 = depth[i];
-          bool edge = false;
-          for (int k = 0; k < 4 && !edge; ++k) {
-            const int xx = x + (k == 0) - (k == 1), yy = y + (k == 2) - (k == 3);
-            if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
-            const size_t j = static_cast<size_t>(yy) * W + xx;
-            const float d1 = depth[j];
-            if (std::isinf(d0) != std::isinf(d1)) edge = true;
-            else if (!std::isinf(d0) && std::abs(d0 - d1) > 0.02f * std::min(d0, d1)) edge = true;
-            for (int c = 0; c < 3 && !edge; ++c) edge = std::abs(rgb[3 * i + c] - rgb[3 * j + c]) > 0.03f;
+  {
+    each_pixel([&](int x, int y, size_t i) {
+      if (refine[i]) return;
+      Vector3d col;
+      const float dist = sample(x, y, col);
+      store(i, dist, col);
+    });
+    if (S > 1 && opt.adaptive)  // (the implicit barrier above: all centres are in)
+      each_pixel([&](int x, int y, size_t i) {
+        refine[i] = (x > 0 && differs(i, i - 1)) || (x + 1 < W && differs(i, i + 1)) ||
+                    (y > 0 && differs(i, i - W)) || (y + 1 < H && differs(i, i + W));
+      });
+    if (S > 1)
+      each_pixel([&](int x, int y, size_t i) {
+        if (!refine[i]) return;
+        Vector3d acc = Vector3d::Zero(), col;
+        float dmin = std::numeric_limits<float>::infinity();
+        for (int sy = 0; sy < S; ++sy)
+          for (int sx = 0; sx < S; ++sx) {
+            dmin = std::min(dmin, sample(x + (sx + 0.5) / S - 0.5, y + (sy + 0.5) / S - 0.5, col));
+            acc += col;
           }
-          refine[i] = edge;
-        }
-    }
-    if (S > 1) {
-#ifdef _OPENMP
-#pragma omp for schedule(dynamic, 4)
-#endif
-      for (int y = 0; y < H; ++y)
-        for (int x = 0; x < W; ++x) {
-          const size_t i = static_cast<size_t>(y) * W + x;
-          if (!refine[i]) continue;
-          Vector3d acc = Vector3d::Zero(), col;
-          float dmin = std::numeric_limits<float>::infinity();
-          for (int sy = 0; sy < S; ++sy)
-            for (int sx = 0; sx < S; ++sx) {
-              dmin = std::min(dmin, sample(x + (sx + 0.5) / S - 0.5, y + (sy + 0.5) / S - 0.5, col));
-              acc += col;
-            }
-          acc *= inv;
-          for (int k = 0; k < 3; ++k) rgb[3 * i + k] = static_cast<float>(acc[k]);
-          depth[i] = dmin;
-        }
-    }
+        store(i, dmin, acc * inv);
+      });
     errors.collect();  // this thread's own Embree error slot
   }
   errors.throw_if_any("rtcIntersect1");
