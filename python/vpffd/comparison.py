@@ -324,7 +324,10 @@ def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, 
     canvas[:] = np.round(bg * 255).astype(np.uint8)
     x0 = (w - n * pw) // 2
     # The panels share the faces: one BVH, built for the rest mesh and refitted
-    # to each deformed one (a refit costs ~1/15 of a build).
+    # to each deformed one. Measured (1.3 M triangles, 2 threads): the build and
+    # two refits take about the wall time of three quick (low quality) builds,
+    # ~1.2 times their CPU time, and rays on the better BVH ~5 % less; each
+    # further panel costs a refit, ~1/4 of a quick build.
     scene = Scene(rest, refit=True)
     for i, (lab, V, cp, _, vol) in enumerate(panels):
         if i > 0:
