@@ -9,6 +9,7 @@ subdiv 8 gives 655,362 vertices and 1,310,720 triangles. Prints medians of
 --repeats runs and the load average (the machine may be shared).
 """
 import argparse
+import itertools
 import os
 import statistics
 import time
@@ -45,6 +46,9 @@ def main():
     d = vpffd.Deformer(mesh, lat, backend="openmp")
     r = d.deform(vpffd.edits.squash(lat.control_points, 0.6, axis="y"), axes="xz")
     plain = r.control_points - r.offsets
+    moving = vpffd.Scene(mesh, refit=True)
+    frames = itertools.cycle([r.vertices, mesh.vertices])
+    panel_cam = comparison.fit_camera(r.vertices, up="y", size=(w // 3, h - 110))
     print(f"mesh: {mesh.n_vertices:,} vertices, {mesh.n_faces:,} triangles; picture {w} x {h}; "
           f"threads {vpffd._core.max_threads()}; load average {os.getloadavg()[0]:.2f} before")
     rows = [
@@ -58,9 +62,19 @@ def main():
          lambda: (comparison.local_volume_change(d, plain), comparison.local_volume_change(d, r.control_points))),
         ("  part: one Embree scene (BVH build, render's fast build)",
          lambda: vpffd._core.RayScene(r.vertices, mesh.faces, True)),
+        ("  part: one refittable scene (BVH build, render_comparison's)",
+         lambda: vpffd._core.RayScene(mesh.vertices, mesh.faces, False, True)),
+        ("  part: refit to a deformed mesh (Scene.set_vertices)", lambda: moving.set_vertices(next(frames))),
+        ("  part: the camera framing the 3 panels (fit_camera)",
+         lambda: comparison.fit_camera(np.concatenate([mesh.vertices, r.vertices, r.vertices]), up="y",
+                                       size=(w // 3, h - 110))),
         ("  part: one panel render (scene + rays, samples 2)",
          lambda: vpffd.render(vpffd.Mesh(r.vertices, mesh.faces), size=(w // 3, h - 110), samples=2,
                               colors=np.full((mesh.n_vertices, 3), 0.8))),
+        ("  part: one panel of render_comparison (refit, normals, rays, samples 2)",
+         lambda: (moving.set_vertices(next(frames)),
+                  vpffd.render(moving, panel_cam, size=(w // 3, h - 110), samples=2,
+                               colors=np.full((mesh.n_vertices, 3), 0.8)))),
     ]
     print("| step | wall ms (median) | CPU ms, all threads (median) |\n|---|---:|---:|")
     for name, fn in rows:

@@ -19,7 +19,7 @@ from . import _core
 from .camera import Camera, _size
 from .colormap import FOLD_COLOR, colormap, volume_change_colors, volume_change_limit
 from .mesh import Mesh
-from .picking import _require_embree
+from .picking import Scene, _require_embree
 
 InvalidInputError = _core.InvalidInputError
 BackendUnavailableError = _core.BackendUnavailableError
@@ -123,20 +123,37 @@ def fit_camera(points, up="z", size=(800, 600), direction=None, fov: float = 30.
     u = np.cross(r, f)
     ty = math.tan(math.radians(fov) / 2)
     tx = ty * w / h
-    lo, hi = P.min(axis=0), P.max(axis=0)
+    # Column by column: on millions of points numpy's reductions along axis 0
+    # and its (n, 3) @ (3, 3) product are 5-30 times slower than on columns.
+    x, y, z = (np.ascontiguousarray(P[:, k]) for k in range(3))
+    lo, hi = np.array([x.min(), y.min(), z.min()]), np.array([x.max(), y.max(), z.max()])
     c = 0.5 * (lo + hi)
     size_ = float(np.linalg.norm(hi - lo)) or 1.0
-    A, B, Z = (P - c) @ r, (P - c) @ u, (P - c) @ d
-    dist = 0.0
+    # Coordinates along r, u, d relative to c.
+
+    def along(e):
+        a = x * e[0]
+        a += y * e[1]
+        a += z * e[2]
+        a -= float(e @ c)
+        return a
+
+    A, B, Z = along(r), along(u), along(d)
+    # The target moves by (sa, sb) along (r, u); the distance that fits every point,
+    # max(Z + margin |A - sa| / tx) (and the same for B), follows from four maxima
+    # taken once, since |a - s| = max(a - s, s - a).
+    ext_a = (np.max(Z + (margin / tx) * A), np.max(Z - (margin / tx) * A))
+    ext_b = (np.max(Z + (margin / ty) * B), np.max(Z - (margin / ty) * B))
+    sa = sb = dist = 0.0
     for _ in range(4):  # distance for the target, then centre the projection, and again
-        dist = float(max(np.max(Z + margin * np.abs(A) / tx), np.max(Z + margin * np.abs(B) / ty)))
-        dist = max(dist, 1e-6 * size_)
-        depth = dist - Z
-        sx, sy = A / depth, B / depth
+        dist = max(ext_a[0] - margin * sa / tx, ext_a[1] + margin * sa / tx,
+                   ext_b[0] - margin * sb / ty, ext_b[1] + margin * sb / ty)
+        dist = max(float(dist), 1e-6 * size_)
+        inv_depth = 1.0 / (dist - Z)
+        sx, sy = (A - sa) * inv_depth, (B - sb) * inv_depth
         mx, my = 0.5 * (sx.min() + sx.max()), 0.5 * (sy.min() + sy.max())
-        shift_a, shift_b = mx * dist, my * dist
-        c = c + shift_a * r + shift_b * u
-        A, B = A - shift_a, B - shift_b
+        sa, sb = sa + mx * dist, sb + my * dist
+    c = c + sa * r + sb * u
     return Camera(c + dist * d, c, up_v, fov)
 
 
@@ -306,11 +323,18 @@ def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, 
     canvas = np.empty((h, w, 3), np.uint8)
     canvas[:] = np.round(bg * 255).astype(np.uint8)
     x0 = (w - n * pw) // 2
+    # The panels share the faces: one BVH, built for the rest mesh and refitted
+    # to each deformed one. Measured (1.3 M triangles, 2 threads): the build and
+    # two refits take about the wall time of three quick (low quality) builds,
+    # ~1.2 times their CPU time, and rays on the better BVH ~5 % less; each
+    # further panel costs a refit, ~1/4 of a quick build.
+    scene = Scene(rest, refit=True)
     for i, (lab, V, cp, _, vol) in enumerate(panels):
+        if i > 0:
+            scene.set_vertices(V)
         kw = {} if lattice_style == "none" else dict(lattice=lat, control_points=cp, **_lattice_kw(lattice_style))
         colors = volume_change_colors(detj[i], limit) if color == "volume" else None
-        img = render(Mesh(V, rest.faces), cam, size=(pw, ph), colors=colors, samples=samples,
-                     background=bg, **kw)
+        img = render(scene, cam, size=(pw, ph), colors=colors, samples=samples, background=bg, **kw)
         canvas[cap_h:cap_h + ph, x0 + i * pw:x0 + (i + 1) * pw] = img
 
     pic = Image.fromarray(canvas)

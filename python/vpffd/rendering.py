@@ -14,7 +14,7 @@ from . import _arrays, _core
 from .camera import Camera, _size
 from .colormap import FOLD_COLOR, colormap
 from .mesh import Mesh
-from .picking import _require_embree
+from .picking import Scene, _require_embree
 
 InvalidInputError = _core.InvalidInputError
 
@@ -99,8 +99,10 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
 
     Parameters
     ----------
-    mesh : Mesh, (vertices, faces) pair, or object with vertices/faces
-        e.g. a deformed mesh ``Mesh(result.vertices, mesh.faces)``.
+    mesh : Mesh, (vertices, faces) pair, object with vertices/faces, or vpffd.Scene
+        e.g. a deformed mesh ``Mesh(result.vertices, mesh.faces)``; a Scene
+        draws its mesh with the BVH it holds (no build: e.g. the frames of a
+        deformation through one ``Scene(mesh, refit=True)`` and ``set_vertices``).
     camera : Camera, optional
         default: ``Camera.framing`` of the mesh (and of the lattice, when drawn).
     lattice : vpffd.Lattice, optional
@@ -147,7 +149,8 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
     (H, W, 3) uint8 image (and the depth map with ``return_depth``).
     """
     _require_embree("render")
-    m = Mesh.from_any(mesh)
+    scene = mesh if isinstance(mesh, Scene) else None
+    m = scene.mesh if scene is not None else Mesh.from_any(mesh)
     w, h = _size(size)
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= 8:
         raise InvalidInputError(f"render: samples must be an integer in 1..8, got {samples!r}")
@@ -190,8 +193,9 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
     if cp is not None:
         P = np.ascontiguousarray(cp.reshape(-1, 3))
         L = lattice_lines(cp.shape[:3]) if lines else np.zeros((0, 2), np.int32)
-    scene = _core.RayScene(m.vertices, m.faces, True)  # one image: a quick BVH build pays
-    image, depth = scene.render(camera.eye, camera.target, camera.up, camera.fov, w, h, int(samples),
+    # One image: a quick BVH build pays more than a better one.
+    rs = scene._s if scene is not None else _core.RayScene(m.vertices, m.faces, True)
+    image, depth = rs.render(camera.eye, camera.target, camera.up, camera.fov, w, h, int(samples),
                                 _color3(background, "background"), _color3(base_color, "base_color"), vc, N, P, L,
                                 _color3(line_color, "line_color"), _color3(point_color, "point_color"),
                                 float(point_radius) if points else 0.0, float(hidden_alpha), float(line_alpha),

@@ -497,3 +497,67 @@ TEST(Deformer, FrameTimings) {
   EXPECT_GT(t.ffd + t.coefficients + t.gathers, 0.0);
   EXPECT_LE(t.plan + t.ffd + t.coefficients + t.solves + t.gathers + t.volume + t.reorder, t.total * (1 + 1e-9));
 }
+
+// The factored Jacobian (uniform orders) against the plain triple loop, which
+// stays as the mixed-order path. Both sum the same products sum_ijk P_c g_q,ijk
+// in a different order; with g's factors the B-spline values (>= 0, sum 1) and
+// derivatives, sum_ijk |P_c| |g_q| <= Pmax D_q with D_q = sum |dN_q| along axis
+// q, so each path is within gamma_m Pmax D_q of the exact sum (m = 3K + 2 roundings
+// along the longest chain: the products and the sums over i, j, k) and the two
+// within twice that. The determinants then differ by at most sum_rq |cofactor_rq|
+// times those, below 1e-12 of the Hadamard bound prod_r |J_r| here (Pmax D_q is
+// a few times |J| for this lattice around the origin: the margin is ~100).
+TEST(Deformer, FactoredJacobianMatchesTripleLoop) {
+  const TriMesh m = icosphere(3);
+  constexpr double u = 0.5 * std::numeric_limits<double>::epsilon();
+  for (int d = 1; d <= kMaxDegree; ++d) {
+    const Lattice L = lattice_around(m.V, {d + 3, d + 4, d + 3}, d);
+    const RowMatrixX3d P = bend(twist(squashed(L, 0.6), 1.3, 2, Vector3d::Zero()), 0.7, 2, 0, Vector3d::Zero());
+    Deformer D(m.V, m.F, L);
+    const BasisTables& T = D.tables();
+    const Embedding& E = D.processing_embedding();
+    ASSERT_EQ(T.order[0], d + 1);
+    const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    const Vector3d s = parameter_scale(L);
+    const Index n = m.V.rows();
+    std::vector<double> fast(9 * n), ref(9 * n);
+    detail::jacobian_kernel(T, E, Px.data(), Py.data(), Pz.data(), s, fast.data(), 0, n);
+    detail::jacobian_points<0>(T, E, Px.data(), Py.data(), Pz.data(), s, ref.data(), 0, n);
+    const double Pmax = P.cwiseAbs().maxCoeff();
+    const int K = d + 1, chain = 3 * K + 2;
+    const double gamma = chain * u / (1 - chain * u);
+    double worst_entry = 0, worst_det = 0;
+    for (Index v = 0; v < n; ++v) {
+      double Dq[3];
+      for (int a = 0; a < 3; ++a) {
+        const int sp = E.span[a][v];
+        double N[detail::kMaxOrder], dN[detail::kMaxOrder];
+        eval_span_derivs(T.poly[a].span_coef(sp), K, E.tau[a][v], N, dN);
+        Dq[a] = 0;
+        for (int r = 0; r < K; ++r) Dq[a] += std::abs(dN[r]);
+        Dq[a] *= T.poly[a].inv_width[sp - T.poly[a].first_span] * s[a];
+      }
+      Eigen::Matrix3d Jf, Jr;
+      for (int r = 0; r < 3; ++r)
+        for (int q = 0; q < 3; ++q) {
+          Jf(r, q) = fast[9 * v + 3 * r + q];
+          Jr(r, q) = ref[9 * v + 3 * r + q];
+          const double bound = 2 * gamma * Pmax * Dq[q];
+          ASSERT_LE(std::abs(Jf(r, q) - Jr(r, q)), bound) << "degree " << d << " vertex " << v;
+          worst_entry = std::max(worst_entry, std::abs(Jf(r, q) - Jr(r, q)) / bound);
+        }
+      const double hadamard = Jr.row(0).norm() * Jr.row(1).norm() * Jr.row(2).norm();
+      ASSERT_LE(std::abs(Jf.determinant() - Jr.determinant()), 1e-12 * hadamard) << "degree " << d << " vertex " << v;
+      worst_det = std::max(worst_det, std::abs(Jf.determinant() - Jr.determinant()) / hadamard);
+    }
+    // The check is not vacuous: the Jacobians are far from the identity.
+    double off_identity = 0;
+    for (Index v = 0; v < n; ++v)
+      off_identity = std::max(off_identity,
+                              (Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(ref.data() + 9 * v) -
+                               Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff());
+    EXPECT_GT(off_identity, 0.3) << "degree " << d;
+    RecordProperty("worst_entry_over_bound_deg" + std::to_string(d), std::to_string(worst_entry));
+    RecordProperty("worst_det_rel_deg" + std::to_string(d), std::to_string(worst_det));
+  }
+}

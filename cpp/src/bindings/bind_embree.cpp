@@ -27,7 +27,16 @@ void bind_embree(py::module_& m) {
       py::arg("x"), py::arg("y"), "Unit direction of the ray through the centre of pixel (x, y).");
 
   py::class_<RayScene>(m, "RayScene", "A triangle mesh in an Embree scene (picking, rendering).")
-      .def(py::init<RefV, RefF, bool>(), py::arg("vertices"), py::arg("faces"), py::arg("fast_build") = false)
+      .def(py::init<RefV, RefF, bool, bool>(), py::arg("vertices"), py::arg("faces"), py::arg("fast_build") = false,
+           py::arg("refit") = false)
+      .def(
+          "set_vertices",
+          [](RayScene& s, RefV V) {
+            py::gil_scoped_release release;
+            s.set_vertices(V);
+          },
+          py::arg("vertices"),
+          "Moves the vertices (same count, same faces); refits the BVH of a scene built with refit=True.")
       .def_property_readonly("n_vertices", &RayScene::n_vertices)
       .def_property_readonly("n_faces", &RayScene::n_faces)
       .def(

@@ -51,12 +51,15 @@ inline void tangent_frame(const Vector3d& n, Vector3d& t1, Vector3d& t2) {
 /// vertex, normalised (zero for unreferenced vertices or where they cancel).
 /// @param[in] V  #V x 3 vertex positions
 /// @param[in] F  #F x 3 triangles, counter-clockwise seen from outside
+/// @param[in] vf vertex_faces(F, #V) of a mesh checked before (validate_mesh): for a
+///               mesh that moves, built once
 /// @returns #V x 3 unit normals
-/// @throws InvalidInputError for a bad mesh
+/// @throws InvalidInputError for lists of another mesh size
 inline RowMatrixX3d vertex_normals(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
-                                   int threads = 0) {
-  validate_mesh(V, F, "vertex_normals");
-  const VertexFaces vf = vertex_faces(F, V.rows());
+                                   const VertexFaces& vf, int threads = 0) {
+  VPFFD_CHECK(vf.indptr.size() == static_cast<size_t>(V.rows()) + 1 &&
+                  vf.faces.size() == 3 * static_cast<size_t>(F.rows()),
+              "vertex_normals: the vertex-face lists are not those of this mesh");
   RowMatrixX3d N(V.rows(), 3);
   // Gathered per vertex (no scatter), so threads never write the same row.
   parallel_range(V.rows(), threads, [&](Index b, Index e) {
@@ -71,6 +74,14 @@ inline RowMatrixX3d vertex_normals(const Eigen::Ref<const RowMatrixX3d>& V, cons
     }
   });
   return N;
+}
+
+/// The same for any mesh: checks it and builds its vertex-face lists.
+/// @throws InvalidInputError for a bad mesh
+inline RowMatrixX3d vertex_normals(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
+                                   int threads = 0) {
+  validate_mesh(V, F, "vertex_normals");
+  return vertex_normals(V, F, vertex_faces(F, V.rows()), threads);
 }
 
 /// Exact normals of the deformed surface: cof(J_v) n_v, normalised.

@@ -62,19 +62,30 @@ struct RenderOptions {
 };
 
 /// A triangle mesh loaded into an Embree scene; build once, then pick and render
-/// as often as needed (thread-safe for concurrent queries).
+/// as often as needed (thread-safe for concurrent queries; set_vertices waits for
+/// the queries running on other threads and holds new ones off until it is done).
 class RayScene {
  public:
   /// @param[in] V  #V x 3 vertex positions
   /// @param[in] F  #F x 3 triangles
   /// @param[in] fast_build  a quicker, less optimised BVH (Embree's low build quality):
   ///                        for a scene rendered once, where the build costs more than the rays
+  /// @param[in] refit  the mesh will move (set_vertices): its BVH is built once and then
+  ///                   refitted to the new positions instead of rebuilt, several times faster
+  ///                   than a build; rays cost a little more the further the mesh moves
   /// @throws InvalidInputError for a bad mesh, DeviceError when Embree fails
   RayScene(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
-           bool fast_build = false);
+           bool fast_build = false, bool refit = false);
   ~RayScene();
   RayScene(const RayScene&) = delete;
   RayScene& operator=(const RayScene&) = delete;
+
+  /// Moves the vertices to V (#V x 3, the same count; the faces stay): queries then give
+  /// the hits of a scene built from V. The BVH is refitted when the scene was constructed
+  /// with refit = true, else rebuilt.
+  /// @throws InvalidInputError for a wrong row count or non-finite coordinates (the scene
+  ///         is then unchanged), DeviceError when Embree fails
+  void set_vertices(const Eigen::Ref<const RowMatrixX3d>& V);
 
   /// First hits of n rays.
   /// @param[in] origins     n x 3 ray origins
