@@ -20,6 +20,7 @@
 #include "vpffd/correction/solve.h"
 #include "vpffd/correction/tied_solve.h"
 #include "vpffd/ffd/basis_matrix.h"
+#include "vpffd/ffd/cell_runs.h"
 #include "vpffd/ffd/kernels.h"
 #include "vpffd/ffd/points.h"
 #include "vpffd/ffd/vertex_order.h"
@@ -326,6 +327,7 @@ class Deformer {
     V_ = V;
     order_.swap(order);
     rank_.swap(rank);
+    runs_ = cell_runs(Es);
     embedding_ = std::move(Es);
     seam_shift_ = std::move(shift);
     face_order_.swap(forder);
@@ -354,7 +356,11 @@ class Deformer {
     const Eigen::VectorXd Px = Pe.col(0), Py = Pe.col(1), Pz = Pe.col(2);
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
-        detail::ffd_kernel<decltype(K)::value>(tables_, embedding_, Px.data(), Py.data(), Pz.data(), out, b, e);
+        constexpr int k = decltype(K)::value;
+        if constexpr (k > 0)
+          detail::ffd_runs<k>(tables_, embedding_, runs_, Px.data(), Py.data(), Pz.data(), out, b, e);
+        else
+          detail::ffd_kernel<k>(tables_, embedding_, Px.data(), Py.data(), Pz.data(), out, b, e);
       });
       if (seam_shift_.rows() > 0)
         for (Index i = b; i < e; ++i)
@@ -374,7 +380,11 @@ class Deformer {
   void gather(const VectorXd& D, double* X, int axis, int threads) const {
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
-        detail::gather_kernel<decltype(K)::value>(tables_, embedding_, D.data(), X, axis, b, e);
+        constexpr int k = decltype(K)::value;
+        if constexpr (k > 0)
+          detail::gather_runs<k>(tables_, embedding_, runs_, D.data(), X, axis, b, e);
+        else
+          detail::gather_kernel<k>(tables_, embedding_, D.data(), X, axis, b, e);
       });
     });
   }
@@ -389,8 +399,13 @@ class Deformer {
     std::vector<double> part(chunks, 0.0);
     parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
-        part[c] = detail::gather_final_kernel<decltype(K)::value>(tables_, embedding_, D.data(), X, axis, w,
-                                                                   origin_[axis], order_.data(), out, b, e);
+        constexpr int k = decltype(K)::value;
+        if constexpr (k > 0)
+          part[c] = detail::gather_final_runs<k>(tables_, embedding_, runs_, D.data(), X, axis, w, origin_[axis],
+                                                 order_.data(), out, b, e);
+        else
+          part[c] = detail::gather_final_kernel<k>(tables_, embedding_, D.data(), X, axis, w, origin_[axis],
+                                                   order_.data(), out, b, e);
       });
     });
     double s = 0;
@@ -411,7 +426,7 @@ class Deformer {
                                 double* weights = nullptr) const {
     if (!is_closed()) check_method(method);
     if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, Fs_, axis, origin_, threads);
-    return coefficients_rings(tables_, embedding_, rings_, X, axis, origin_, threads, !is_closed(), weights);
+    return coefficients_rings(tables_, embedding_, rings_, X, axis, origin_, threads, !is_closed(), weights, &runs_);
   }
 
   Lattice lattice_;
@@ -425,6 +440,7 @@ class Deformer {
   std::vector<std::int32_t> rank_;   ///< vertex -> processing position
   std::vector<std::int32_t> face_order_;  ///< face processing position -> face
   Embedding embedding_;              ///< in processing order
+  CellRuns runs_;                    ///< embedding_'s cell runs
   RowMatrixX3i Fs_;                  ///< faces with processing-order indices
   EdgeReport edges_;
   mutable std::mutex adjacency_mutex_;
@@ -668,7 +684,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       AxisStep info;
       info.axis = a;
       const PartCoefficients co = part_coefficients_rings(tables_, embedding_, rings_, X, a, origin_, part_start_,
-                                                          threads);
+                                                          threads, &runs_);
       lap(tm.coefficients);
       info.volume_before = co.volume.sum();
       // Equal shares of what each part still misses: after the last axis every part is at its target.

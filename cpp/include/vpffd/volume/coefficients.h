@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "vpffd/core/parallel.h"
+#include "vpffd/ffd/cell_runs.h"
 #include "vpffd/ffd/kernels.h"
 #include "vpffd/mesh/validate.h"
 #include "vpffd/sparse/spmv.h"
@@ -42,6 +43,23 @@ inline VectorXd sum_chunks(const std::vector<double>& buf, int chunks, Index N, 
 inline int scatter_chunks(Index nv, Index N) {
   const int max_chunks = static_cast<int>(std::clamp<Index>((Index(64) << 20) / (8 * N), 1, 64));
   return chunk_count(nv, 8192, max_chunks);
+}
+
+/// acc[c] += weight(v) B_c(u_v) for v in [b, e): run by run in the power form
+/// (cell_runs.h) when `runs` is given and the orders are uniform, else point by point.
+template <class Weight>
+void scatter(const BasisTables& T, const Embedding& E, const CellRuns* runs, Weight&& weight, double* acc, Index b,
+             Index e) {
+  dispatch_order(T, [&](auto K) {
+    constexpr int k = decltype(K)::value;
+    if constexpr (k > 0) {
+      if (runs) {
+        scatter_runs<k>(T, E, *runs, weight, acc, b, e);
+        return;
+      }
+    }
+    scatter_kernel<k>(T, E, weight, acc, b, e);
+  });
 }
 
 /// A vertex's volume weight from its ring (coefficients_rings): (1/6) sum over its
@@ -143,9 +161,12 @@ inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embed
 /// writing a per-face buffer and reading it back through the vertex-face lists.
 /// @param[out] weights  if not null, #V: the w_v (the volume is sum_v (x_v - o) w_v
 ///                      while only the `axis` coordinates change)
+/// @param runs  if not null, E's cell runs (cell_runs(E)): the scatter then works
+///              run by run in the power form (same coefficients up to rounding)
 inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding& E, const VertexRings& rings,
                                            const double* X, int axis, const Vector3d& origin, int threads = 0,
-                                           bool cone = false, double* weights = nullptr) {
+                                           bool cone = false, double* weights = nullptr,
+                                           const CellRuns* runs = nullptr) {
   const Index nv = E.size();
   const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
   const int chunks = detail::scatter_chunks(nv, N);
@@ -167,9 +188,7 @@ inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding
         vsum += (pv[ax] - o) * w;
         return w;
       };
-      detail::dispatch_order(T, [&](auto K) {
-        detail::scatter_kernel<decltype(K)::value>(T, E, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
-      });
+      detail::scatter(T, E, runs, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
       vol[c] = vsum;
     });
   };

@@ -26,9 +26,11 @@ struct PartCoefficients {
 /// piece scatters into its own buffer (a part in one piece into its row directly)
 /// and the pieces are summed in order: same result for any thread count.
 /// @param part_start  K + 1 offsets into the processing order
+/// @param runs  if not null, E's cell runs (as coefficients_rings)
 inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embedding& E, const VertexRings& rings,
                                                 const double* X, int axis, const Vector3d& origin,
-                                                const std::vector<Index>& part_start, int threads = 0) {
+                                                const std::vector<Index>& part_start, int threads = 0,
+                                                const CellRuns* runs = nullptr) {
   const Index nv = E.size();
   const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
   const int K = static_cast<int>(part_start.size()) - 1;
@@ -83,9 +85,7 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
         vsum += (pv[ax] - o) * w;
         return w;
       };
-      detail::dispatch_order(T, [&](auto Ko) {
-        detail::scatter_kernel<decltype(Ko)::value>(T, E, weight, piece.acc, piece.b, piece.e);
-      });
+      detail::scatter(T, E, runs, weight, piece.acc, piece.b, piece.e);
       piece.volume = vsum;
     }
     (void)nt;
