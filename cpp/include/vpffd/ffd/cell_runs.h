@@ -258,6 +258,22 @@ double gather_final_runs(const BasisTables& T, const Embedding& E, const CellRun
   return vsum;
 }
 
+/// Lane masks of scatter_runs' powers: kPowerMask<K>[q] lane l is 1 for l >= q,
+/// else 0, and kPowerFill<K>[q] = 1 - kPowerMask<K>[q].
+template <int K>
+inline const std::array<Eigen::Array<double, K, 1>, K> kPowerMask = [] {
+  std::array<Eigen::Array<double, K, 1>, K> m;
+  for (int q = 0; q < K; ++q)
+    for (int l = 0; l < K; ++l) m[q][l] = l >= q ? 1.0 : 0.0;
+  return m;
+}();
+template <int K>
+inline const std::array<Eigen::Array<double, K, 1>, K> kPowerFill = [] {
+  std::array<Eigen::Array<double, K, 1>, K> m;
+  for (int q = 0; q < K; ++q) m[q] = 1.0 - kPowerMask<K>[q];
+  return m;
+}();
+
 /// acc[c] += weight(v) * B_c(u_v) for v in [b, e) (scatter_kernel, run by run):
 /// weight(v) is called once per point, in order.
 template <int K, class Weight>
@@ -272,21 +288,24 @@ void scatter_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, W
     const double *tu = E.tau[0].data(), *tv = E.tau[1].data(), *tw = E.tau[2].data();
     for (Index v = lo; v < hi; ++v) {
       const double wv = weight(v);
-      // Powers of the local parameters: pu, pv as scalars, pw as the vector along s.
+      // Powers of the local parameters: pu (times w), pv as scalars, pw as the
+      // vector along s, built in registers: lane s is the product of the factors
+      // (lane >= q ? tau : 1), q = 1..K-1, the same products as the scalar powers.
+      // (Lanes written one by one and read as a vector stall on store forwarding.)
       double pu[K], pv[K];
-      KVec pw;
       pu[0] = wv;
       pv[0] = 1.0;
-      pw[0] = 1.0;
       for (int q = 1; q < K; ++q) {
         pu[q] = pu[q - 1] * tu[v];
         pv[q] = pv[q - 1] * tv[v];
-        pw[q] = pw[q - 1] * tw[v];
       }
-      KVec t[K];
-      for (int j = 0; j < K; ++j) t[j] = pv[j] * pw;
+      const KVec t = KVec::Constant(tw[v]);
+      KVec pw = KVec::Ones();
+      for (int q = 1; q < K; ++q) pw *= kPowerMask<K>[q] * t + kPowerFill<K>[q];
+      KVec vw[K];
+      for (int j = 0; j < K; ++j) vw[j] = pv[j] * pw;
       for (int i = 0; i < K; ++i)
-        for (int j = 0; j < K; ++j) m[i * K + j] += pu[i] * t[j];
+        for (int j = 0; j < K; ++j) m[i * K + j] += pu[i] * vw[j];
     }
     for (int qr = 0; qr < K * K; ++qr) Eigen::Map<KVec>(M + qr * K) = m[qr];
     add_from_power<K>(run_basis<K>(T, R, r), M, si, sj, acc);

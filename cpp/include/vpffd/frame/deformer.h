@@ -188,7 +188,7 @@ class Deformer {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       if (adjacency_) bytes += double(adjacency_->indptr.size() + adjacency_->faces.size()) * per_int;
     }
-    bytes += double(rings_.indptr.size() + rings_.pairs.size()) * per_int;
+    bytes += double(rings_.indptr.size() + rings_.pairs.size() + fans_.indptr.size() + fans_.fan.size()) * per_int;
     bytes += double(n_vertices()) * Embedding::bytes_per_point;
     return bytes / double(n_vertices());
   }
@@ -334,7 +334,15 @@ class Deformer {
     Fs_ = std::move(Fs);
     part_start_.swap(part_start);
     face_start_.swap(face_start);
-    rings_ = vertex_rings(Fs_, nv);
+    // A closed mesh's weights come from the fans (half the reads); an open one's
+    // cone weights need the pairs (VertexFans' separators add zero only with b = p_v).
+    if (is_closed()) {
+      fans_ = vertex_fans(vertex_rings(Fs_, nv));
+      rings_ = VertexRings{};
+    } else {
+      rings_ = vertex_rings(Fs_, nv);
+      fans_ = VertexFans{};
+    }
     {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       adjacency_.reset();  // of the old faces' numbering
@@ -426,7 +434,8 @@ class Deformer {
                                 double* weights = nullptr) const {
     if (!is_closed()) check_method(method);
     if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, Fs_, axis, origin_, threads);
-    return coefficients_rings(tables_, embedding_, rings_, X, axis, origin_, threads, !is_closed(), weights, &runs_);
+    if (is_closed()) return coefficients_fans(tables_, embedding_, fans_, X, axis, origin_, threads, weights, &runs_);
+    return coefficients_rings(tables_, embedding_, rings_, X, axis, origin_, threads, true, weights, &runs_);
   }
 
   Lattice lattice_;
@@ -445,7 +454,8 @@ class Deformer {
   EdgeReport edges_;
   mutable std::mutex adjacency_mutex_;
   mutable std::unique_ptr<VertexFaces> adjacency_;  ///< of Fs_, built on first use
-  VertexRings rings_;  ///< of Fs_
+  VertexRings rings_;  ///< of Fs_, for an open mesh (empty for a closed one)
+  VertexFans fans_;    ///< of Fs_, for a closed mesh (empty for an open one)
   Vector3d origin_;
   double rest_volume_ = 0;
   bool has_parts_ = false;
@@ -683,7 +693,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       const int a = opt.axes[step % naxes];
       AxisStep info;
       info.axis = a;
-      const PartCoefficients co = part_coefficients_rings(tables_, embedding_, rings_, X, a, origin_, part_start_,
+      const PartCoefficients co = part_coefficients_rings(tables_, embedding_, fans_, X, a, origin_, part_start_,
                                                           threads, &runs_);
       lap(tm.coefficients);
       info.volume_before = co.volume.sum();
