@@ -178,8 +178,9 @@ class Deformer {
 
   /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
   /// vertex and face orders, the faces (as given and renumbered), the vertex
-  /// rings, the rest vertices and, once built, the vertex-face lists (about 200
-  /// bytes for a closed mesh, F = 2V, with the lists; 28 less without).
+  /// fans (closed mesh, ~32) or rings (open, ~52), the cell runs, the rest vertices
+  /// and, once built, the vertex-face lists (about 185 bytes for a closed mesh,
+  /// F = 2V, with the lists; 28 less without).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size()) * per_int;
@@ -190,6 +191,7 @@ class Deformer {
     }
     bytes += double(rings_.indptr.size() + rings_.pairs.size() + fans_.indptr.size() + fans_.fan.size()) * per_int;
     bytes += double(n_vertices()) * Embedding::bytes_per_point;
+    bytes += double(runs_.start.size()) * sizeof(Index) + double(3 * runs_.size()) * per_int;
     return bytes / double(n_vertices());
   }
 
