@@ -137,6 +137,49 @@ TEST(Parts, EveryPartKeepsItsVolume) {
   }
 }
 
+// The frame's per-part coefficients (vertex fans, scatter run by run in the power
+// form) against the straightforward sums: alpha_k = sum over part k's vertices of
+// w_v B_v, with w_v from the ring pairs and B the explicit basis matrix. The same
+// products summed in other orders (see RingCoefficientsEqualFacePass for 1e-13).
+TEST(Parts, PartCoefficientsEqualStraightforwardSums) {
+  const TriMesh m = spheres(3, 3);
+  const Lattice L = lattice_around(m.V, {8, 5, 5}, 3);
+  const MeshParts parts = parts_from_labels(m.F, sphere_labels(m, 3), m.V.rows());
+  Deformer D(m.V, m.F, L, OutsidePolicy::Error, 0, &parts);
+  const Vector3d c = 0.5 * (L.box_min + L.box_max);
+  const RowMatrixX3d Xc = D.ffd(twist(squashed(L, 0.6), 1.0, 0, c));
+  const Index n = Xc.rows(), N = L.n_control_points();
+  const std::vector<std::int32_t>& order = D.processing_order();
+  RowMatrixX3d X(n, 3);  // processing order
+  for (Index i = 0; i < n; ++i) X.row(i) = Xc.row(order[i]);
+  const BasisTables& T = D.tables();
+  const Embedding& E = D.processing_embedding();
+  const VertexRings rings = vertex_rings(D.processing_faces(), n);
+  const VertexFans fans = vertex_fans(rings);
+  const CellRuns runs = cell_runs(E);
+  const CsrMatrix B = D.basis_matrix();  // rows in the caller's vertex order
+  for (int ax = 0; ax < 3; ++ax) {
+    std::vector<double> w(n);
+    coefficients_rings(T, E, rings, X.data(), ax, D.origin(), 1, false, w.data());
+    for (int threads : {1, 2}) {
+      const PartCoefficients pc =
+          part_coefficients_rings(T, E, fans, X.data(), ax, D.origin(), D.part_start(), threads, &runs);
+      ASSERT_EQ(pc.alpha.rows(), 3);
+      for (int k = 0; k < 3; ++k) {
+        VectorXd want = VectorXd::Zero(N);
+        double vol = 0;
+        for (Index i = D.part_start()[k]; i < D.part_start()[k + 1]; ++i) {
+          for (auto p = B.indptr[order[i]]; p < B.indptr[order[i] + 1]; ++p) want[B.indices[p]] += w[i] * B.values[p];
+          vol += w[i] * (X(i, ax) - D.origin()[ax]);
+        }
+        SCOPED_TRACE(::testing::Message() << "axis " << ax << ", part " << k << ", threads " << threads);
+        EXPECT_LE((pc.alpha.row(k).transpose() - want).cwiseAbs().maxCoeff(), 1e-13 * want.cwiseAbs().maxCoeff());
+        EXPECT_LE(std::abs(pc.volume[k] - vol), 1e-13 * std::abs(vol));
+      }
+    }
+  }
+}
+
 TEST(Parts, ComponentsAndBadLabels) {
   const TriMesh m = spheres(3, 1);
   const MeshParts comp = parts_from_components(m.F, m.V.rows());

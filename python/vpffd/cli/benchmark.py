@@ -103,13 +103,14 @@ def default_meshes(include_shared: bool = True) -> list:
 
 
 def format_table(rows: list) -> str:
-    head = ("| mesh | vertices | backend | threads | method | FFD ms | 1 axis ms | xyz frame ms | "
+    head = ("| mesh | vertices | backend | threads | method | FFD ms | 1 axis ms | xyz frame ms | xyz / FFD | "
             "volume error | bytes/vertex | paper matrix nnz |")
-    lines = [head, "|" + "---|" * 11]
+    lines = [head, "|" + "---|" * 12]
     for r in rows:
         nnz = f"{r['csr_nnz']:,}" if r["csr_nnz"] else ""
         lines.append(f"| {r['mesh']} | {r['vertices']:,} | {r['backend']} | {r['threads']} | {r['method']} | "
-                     f"{r['ffd_ms']:.2f} | {r['one_axis_ms']:.2f} | {r['xyz_ms']:.2f} | {r['volume_error']:.1e} | "
+                     f"{r['ffd_ms']:.2f} | {r['one_axis_ms']:.2f} | {r['xyz_ms']:.2f} | "
+                     f"{r['xyz_ms'] / r['ffd_ms']:.1f} | {r['volume_error']:.1e} | "
                      f"{r['bytes_per_vertex']:.0f} | {nnz} |")
     return "\n".join(lines)
 

@@ -26,6 +26,7 @@
 #include "vpffd/correction/solve.h"
 #include "vpffd/correction/tied_solve.h"
 #include "vpffd/ffd/basis_matrix.h"
+#include "vpffd/ffd/cell_runs.h"
 #include "vpffd/ffd/kernels.h"
 #include "vpffd/ffd/points.h"
 #include "vpffd/ffd/vertex_order.h"
@@ -147,8 +148,9 @@ class Deformer {
 
   /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
   /// vertex and face orders, the faces (as given and renumbered), the vertex
-  /// rings, the rest vertices and, once built, the vertex-face lists (about 200
-  /// bytes for a closed mesh, F = 2V, with the lists; 28 less without).
+  /// fans (closed mesh, ~32) or rings (open, ~52), the cell runs, the rest vertices
+  /// and, once built, the vertex-face lists (about 185 bytes for a closed mesh,
+  /// F = 2V, with the lists; 28 less without).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size()) * per_int;
@@ -157,8 +159,9 @@ class Deformer {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       if (adjacency_) bytes += double(adjacency_->indptr.size() + adjacency_->faces.size()) * per_int;
     }
-    bytes += double(rings_.indptr.size() + rings_.pairs.size()) * per_int;
+    bytes += double(rings_.indptr.size() + rings_.pairs.size() + fans_.indptr.size() + fans_.fan.size()) * per_int;
     bytes += double(n_vertices()) * Embedding::bytes_per_point;
+    bytes += double(runs_.start.size()) * sizeof(Index) + double(3 * runs_.size()) * per_int;
     return bytes / double(n_vertices());
   }
 
@@ -296,13 +299,22 @@ class Deformer {
     V_ = V;
     order_.swap(order);
     rank_.swap(rank);
+    runs_ = cell_runs(Es);
     embedding_ = std::move(Es);
     seam_shift_ = std::move(shift);
     face_order_.swap(forder);
     Fs_ = std::move(Fs);
     part_start_.swap(part_start);
     face_start_.swap(face_start);
-    rings_ = vertex_rings(Fs_, nv);
+    // A closed mesh's weights come from the fans (half the reads); an open one's
+    // cone weights need the pairs (VertexFans' separators add zero only with b = p_v).
+    if (is_closed()) {
+      fans_ = vertex_fans(vertex_rings(Fs_, nv));
+      rings_ = VertexRings{};
+    } else {
+      rings_ = vertex_rings(Fs_, nv);
+      fans_ = VertexFans{};
+    }
     {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       adjacency_.reset();  // of the old faces' numbering
@@ -324,7 +336,11 @@ class Deformer {
     const Eigen::VectorXd Px = Pe.col(0), Py = Pe.col(1), Pz = Pe.col(2);
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
-        detail::ffd_kernel<decltype(K)::value>(tables_, embedding_, Px.data(), Py.data(), Pz.data(), out, b, e);
+        constexpr int k = decltype(K)::value;
+        if constexpr (k > 0)
+          detail::ffd_runs<k>(tables_, embedding_, runs_, Px.data(), Py.data(), Pz.data(), out, b, e);
+        else
+          detail::ffd_kernel<k>(tables_, embedding_, Px.data(), Py.data(), Pz.data(), out, b, e);
       });
       if (seam_shift_.rows() > 0)
         for (Index i = b; i < e; ++i)
@@ -344,7 +360,11 @@ class Deformer {
   void gather(const VectorXd& D, double* X, int axis, int threads) const {
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
-        detail::gather_kernel<decltype(K)::value>(tables_, embedding_, D.data(), X, axis, b, e);
+        constexpr int k = decltype(K)::value;
+        if constexpr (k > 0)
+          detail::gather_runs<k>(tables_, embedding_, runs_, D.data(), X, axis, b, e);
+        else
+          detail::gather_kernel<k>(tables_, embedding_, D.data(), X, axis, b, e);
       });
     });
   }
@@ -359,8 +379,13 @@ class Deformer {
     std::vector<double> part(chunks, 0.0);
     parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
-        part[c] = detail::gather_final_kernel<decltype(K)::value>(tables_, embedding_, D.data(), X, axis, w,
-                                                                   origin_[axis], order_.data(), out, b, e);
+        constexpr int k = decltype(K)::value;
+        if constexpr (k > 0)
+          part[c] = detail::gather_final_runs<k>(tables_, embedding_, runs_, D.data(), X, axis, w, origin_[axis],
+                                                 order_.data(), out, b, e);
+        else
+          part[c] = detail::gather_final_kernel<k>(tables_, embedding_, D.data(), X, axis, w, origin_[axis],
+                                                   order_.data(), out, b, e);
       });
     });
     double s = 0;
@@ -381,7 +406,8 @@ class Deformer {
                                 double* weights = nullptr) const {
     if (!is_closed()) check_method(method);
     if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, Fs_, axis, origin_, threads);
-    return coefficients_rings(tables_, embedding_, rings_, X, axis, origin_, threads, !is_closed(), weights);
+    if (is_closed()) return coefficients_fans(tables_, embedding_, fans_, X, axis, origin_, threads, weights, &runs_);
+    return coefficients_rings(tables_, embedding_, rings_, X, axis, origin_, threads, true, weights, &runs_);
   }
 
   Lattice lattice_;
@@ -395,11 +421,13 @@ class Deformer {
   std::vector<std::int32_t> rank_;   ///< vertex -> processing position
   std::vector<std::int32_t> face_order_;  ///< face processing position -> face
   Embedding embedding_;              ///< in processing order
+  CellRuns runs_;                    ///< embedding_'s cell runs
   RowMatrixX3i Fs_;                  ///< faces with processing-order indices
   EdgeReport edges_;
   mutable std::mutex adjacency_mutex_;
   mutable std::unique_ptr<VertexFaces> adjacency_;  ///< of Fs_, built on first use
-  VertexRings rings_;  ///< of Fs_
+  VertexRings rings_;  ///< of Fs_, for an open mesh (empty for a closed one)
+  VertexFans fans_;    ///< of Fs_, for a closed mesh (empty for an open one)
   Vector3d origin_;
   double rest_volume_ = 0;
   bool has_parts_ = false;
@@ -596,8 +624,8 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       const int a = opt.axes[step % naxes];
       AxisStep info;
       info.axis = a;
-      const PartCoefficients co = part_coefficients_rings(tables_, embedding_, rings_, X, a, origin_, part_start_,
-                                                          threads);
+      const PartCoefficients co = part_coefficients_rings(tables_, embedding_, fans_, X, a, origin_, part_start_,
+                                                          threads, &runs_);
       lap(tm.coefficients);
       info.volume_before = co.volume.sum();
       // Equal shares of what each part still misses: after the last axis every part is at its target.

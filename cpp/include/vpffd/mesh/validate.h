@@ -111,6 +111,23 @@ struct VertexRings {
   std::vector<std::int32_t> pairs;
 };
 
+/// A vertex's ring pairs chained into fans: neighbours fan[p] for p in
+/// [indptr[v], indptr[v+1]) such that each pair (m, n) of vertex_rings is two
+/// consecutive entries (fan[p], fan[p+1]), once. A closed manifold vertex with d
+/// faces has one cycle, stored as its d neighbours and the first again (d + 1
+/// entries where the pairs take 2 d). Where the pairs do not form one chain (a
+/// vertex where two sheets touch, or a boundary vertex with several gaps) the
+/// chains follow each other with v itself between them: the pairs (x, v) and (v, y)
+/// this adds have p_m - p_v = 0 or p_n - p_v = 0, so they add exactly zero to the
+/// weight (1/6) sum ((p_m - p_v) x (p_n - p_v))_axis.
+///
+/// Half the reads of the pairs for the same weights (each neighbour's coordinates
+/// are read once per vertex, not twice), added in another order.
+struct VertexFans {
+  std::vector<std::int32_t> indptr;
+  std::vector<std::int32_t> fan;
+};
+
 inline VertexRings vertex_rings(const Eigen::Ref<const RowMatrixX3i>& F, Index n_vertices) {
   VertexRings r;
   r.indptr.assign(n_vertices + 1, 0);
@@ -126,6 +143,51 @@ inline VertexRings vertex_rings(const Eigen::Ref<const RowMatrixX3i>& F, Index n
       r.pairs[2 * p + 1] = F(f, (c + 2) % 3);
     }
   return r;
+}
+
+/// The fans of vertex_rings' pairs (see VertexFans).
+inline VertexFans vertex_fans(const VertexRings& rings) {
+  const Index nv = static_cast<Index>(rings.indptr.size()) - 1;
+  VertexFans f;
+  f.indptr.assign(nv + 1, 0);
+  f.fan.reserve(rings.pairs.size() / 2 + nv);
+  std::vector<char> used;
+  for (Index v = 0; v < nv; ++v) {
+    const std::int32_t b = rings.indptr[v], e = rings.indptr[v + 1];
+    const std::int32_t* pr = rings.pairs.data();
+    used.assign(e - b, 0);
+    bool first_chain = true;
+    for (;;) {
+      // A chain starts at an unused pair whose first vertex no unused pair ends
+      // in (the start of an open fan); failing that at any unused pair (a cycle).
+      std::int32_t start = -1;
+      for (std::int32_t p = b; p < e && start < 0; ++p) {
+        if (used[p - b]) continue;
+        bool continues = false;
+        for (std::int32_t q = b; q < e && !continues; ++q)
+          continues = !used[q - b] && q != p && pr[2 * q + 1] == pr[2 * p];
+        if (!continues) start = p;
+      }
+      if (start < 0)
+        for (std::int32_t p = b; p < e && start < 0; ++p)
+          if (!used[p - b]) start = p;
+      if (start < 0) break;
+      if (!first_chain) f.fan.push_back(static_cast<std::int32_t>(v));
+      first_chain = false;
+      f.fan.push_back(pr[2 * start]);
+      for (std::int32_t p = start; p >= 0;) {
+        used[p - b] = 1;
+        const std::int32_t n = pr[2 * p + 1];
+        f.fan.push_back(n);
+        p = -1;
+        for (std::int32_t q = b; q < e && p < 0; ++q)
+          if (!used[q - b] && pr[2 * q] == n) p = q;
+      }
+    }
+    f.indptr[v + 1] = static_cast<std::int32_t>(f.fan.size());
+  }
+  f.fan.shrink_to_fit();
+  return f;
 }
 
 }  // namespace vpffd

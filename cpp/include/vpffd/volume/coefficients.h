@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "vpffd/core/parallel.h"
+#include "vpffd/ffd/cell_runs.h"
 #include "vpffd/ffd/kernels.h"
 #include "vpffd/mesh/validate.h"
 #include "vpffd/sparse/spmv.h"
@@ -44,6 +45,23 @@ inline int scatter_chunks(Index nv, Index N) {
   return chunk_count(nv, 8192, max_chunks);
 }
 
+/// acc[c] += weight(v) B_c(u_v) for v in [b, e): run by run in the power form
+/// (cell_runs.h) when `runs` is given and the orders are uniform, else point by point.
+template <class Weight>
+void scatter(const BasisTables& T, const Embedding& E, const CellRuns* runs, Weight&& weight, double* acc, Index b,
+             Index e) {
+  dispatch_order(T, [&](auto K) {
+    constexpr int k = decltype(K)::value;
+    if constexpr (k > 0) {
+      if (runs) {
+        scatter_runs<k>(T, E, *runs, weight, acc, b, e);
+        return;
+      }
+    }
+    scatter_kernel<k>(T, E, weight, acc, b, e);
+  });
+}
+
 /// A vertex's volume weight from its ring (coefficients_rings): (1/6) sum over its
 /// faces (v, m, n) of ((p_m - b) x (p_n - b))_ax, b = (b1, b2) in the other two axes.
 template <int ax>
@@ -55,6 +73,28 @@ inline double ring_weight(const double* X, const std::int32_t* ip, const std::in
     const double* pm = X + 3 * Index(pr[2 * p]);
     const double* pn = X + 3 * Index(pr[2 * p + 1]);
     w += (pm[a1] - b1) * (pn[a2] - b2) - (pm[a2] - b2) * (pn[a1] - b1);
+  }
+  return w * (1.0 / 6.0);
+}
+
+/// ring_weight for a closed mesh (b = p_v) from the vertex's fans (VertexFans):
+/// each neighbour's two coordinates read once, the terms in fan order.
+template <int ax>
+VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const std::int32_t* ip, const std::int32_t* fan, Index v) {
+  constexpr int a1 = (ax + 1) % 3, a2 = (ax + 2) % 3;
+  std::int32_t p = ip[v];
+  const std::int32_t e = ip[v + 1];
+  if (p == e) return 0.0;  // a vertex no face uses
+  const double b1 = X[3 * v + a1], b2 = X[3 * v + a2];
+  const double* q = X + 3 * Index(fan[p]);
+  double u1 = q[a1] - b1, u2 = q[a2] - b2;
+  double w = 0;
+  for (++p; p < e; ++p) {
+    q = X + 3 * Index(fan[p]);
+    const double t1 = q[a1] - b1, t2 = q[a2] - b2;
+    w += u1 * t2 - u2 * t1;
+    u1 = t1;
+    u2 = t2;
   }
   return w * (1.0 / 6.0);
 }
@@ -143,9 +183,12 @@ inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embed
 /// writing a per-face buffer and reading it back through the vertex-face lists.
 /// @param[out] weights  if not null, #V: the w_v (the volume is sum_v (x_v - o) w_v
 ///                      while only the `axis` coordinates change)
+/// @param runs  if not null, E's cell runs (cell_runs(E)): the scatter then works
+///              run by run in the power form (same coefficients up to rounding)
 inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding& E, const VertexRings& rings,
                                            const double* X, int axis, const Vector3d& origin, int threads = 0,
-                                           bool cone = false, double* weights = nullptr) {
+                                           bool cone = false, double* weights = nullptr,
+                                           const CellRuns* runs = nullptr) {
   const Index nv = E.size();
   const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
   const int chunks = detail::scatter_chunks(nv, N);
@@ -167,9 +210,47 @@ inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding
         vsum += (pv[ax] - o) * w;
         return w;
       };
-      detail::dispatch_order(T, [&](auto K) {
-        detail::scatter_kernel<decltype(K)::value>(T, E, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
-      });
+      detail::scatter(T, E, runs, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
+      vol[c] = vsum;
+    });
+  };
+  if (axis == 0) pass(std::integral_constant<int, 0>{});
+  else if (axis == 1) pass(std::integral_constant<int, 1>{});
+  else pass(std::integral_constant<int, 2>{});
+  AxisCoefficients out;
+  out.alpha = detail::sum_chunks(buf, chunks, N, threads);
+  for (double v : vol) out.volume += v;
+  return out;
+}
+
+/// coefficients_rings for a closed mesh (b = p_v) from the vertices' fans
+/// (VertexFans: each neighbour read once per vertex, not twice): the same
+/// coefficients, volume and weights up to rounding (the terms are added in fan
+/// order). The frame's coefficient pass on closed meshes.
+inline AxisCoefficients coefficients_fans(const BasisTables& T, const Embedding& E, const VertexFans& fans,
+                                          const double* X, int axis, const Vector3d& origin, int threads = 0,
+                                          double* weights = nullptr, const CellRuns* runs = nullptr) {
+  const Index nv = E.size();
+  const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
+  VPFFD_CHECK(Index(fans.indptr.size()) == nv + 1, "coefficients_fans: fans of ", Index(fans.indptr.size()) - 1,
+              " vertices, the embedding has ", nv);
+  const int chunks = detail::scatter_chunks(nv, N);
+  std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
+  std::vector<double> vol(chunks, 0.0);
+  const std::int32_t* ip = fans.indptr.data();
+  const std::int32_t* fan = fans.fan.data();
+  const double o = origin[axis];
+  auto pass = [&](auto axis_c) {
+    constexpr int ax = decltype(axis_c)::value;
+    parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
+      double vsum = 0;
+      auto weight = [&, weights](Index v) {
+        const double w = detail::fan_weight<ax>(X, ip, fan, v);
+        if (weights) weights[v] = w;
+        vsum += (X[3 * v + ax] - o) * w;
+        return w;
+      };
+      detail::scatter(T, E, runs, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
       vol[c] = vsum;
     });
   };

@@ -21,14 +21,16 @@ struct PartCoefficients {
   VectorXd volume;    ///< K part volumes
 };
 
-/// One pass over the vertices as coefficients_rings (closed parts, b = p_v). The
+/// One pass over the vertices as coefficients_fans (closed parts, b = p_v). The
 /// work is split at part boundaries and at the usual fixed chunk boundaries; each
 /// piece scatters into its own buffer (a part in one piece into its row directly)
 /// and the pieces are summed in order: same result for any thread count.
 /// @param part_start  K + 1 offsets into the processing order
-inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embedding& E, const VertexRings& rings,
+/// @param runs  if not null, E's cell runs (as coefficients_rings)
+inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embedding& E, const VertexFans& fans,
                                                 const double* X, int axis, const Vector3d& origin,
-                                                const std::vector<Index>& part_start, int threads = 0) {
+                                                const std::vector<Index>& part_start, int threads = 0,
+                                                const CellRuns* runs = nullptr) {
   const Index nv = E.size();
   const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
   const int K = static_cast<int>(part_start.size()) - 1;
@@ -64,8 +66,8 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
   for (Piece& p : pieces)
     p.acc = pieces_of[p.part] > 1 ? buf.data() + (next++) * N : out.alpha.row(p.part).data();
 
-  const std::int32_t* ip = rings.indptr.data();
-  const std::int32_t* pr = rings.pairs.data();
+  const std::int32_t* ip = fans.indptr.data();
+  const std::int32_t* fan = fans.fan.data();
   const double o = origin[axis];
   auto pass = [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value;
@@ -79,13 +81,11 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
       double vsum = 0;
       auto weight = [&](Index v) {
         const double* pv = X + 3 * v;
-        const double w = detail::ring_weight<ax>(X, ip, pr, v, pv[(ax + 1) % 3], pv[(ax + 2) % 3]);
+        const double w = detail::fan_weight<ax>(X, ip, fan, v);
         vsum += (pv[ax] - o) * w;
         return w;
       };
-      detail::dispatch_order(T, [&](auto Ko) {
-        detail::scatter_kernel<decltype(Ko)::value>(T, E, weight, piece.acc, piece.b, piece.e);
-      });
+      detail::scatter(T, E, runs, weight, piece.acc, piece.b, piece.e);
       piece.volume = vsum;
     }
     (void)nt;

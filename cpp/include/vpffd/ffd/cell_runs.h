@@ -1,0 +1,316 @@
+#pragma once
+/// @file cell_runs.h
+/// The frame's per-point loops, one cell at a time, in the power form of the cell.
+///
+/// In processing order (vertex_order.h) the points of one lattice cell form a run.
+/// Inside a cell a field given by control values D is one polynomial,
+///   f(tau) = sum_{q,r,s} tau_u^q tau_v^r tau_w^s Dhat_qrs,
+/// whose K^3 power coefficients Dhat are D times the three spans' coefficient
+/// matrices (the same matrices point_basis evaluates by Horner). The change of
+/// basis costs 3 K^4 multiply-adds once per run; afterwards a point needs no basis
+/// values at all: the kernels evaluate f for four points at a time, one per SIMD
+/// lane, by nested Horner (K^3 - 1 multiply-adds per four points, no horizontal
+/// sums, many independent chains), where the per-point kernels spend 3 K^2 on the
+/// basis and K^3 + K on a K-wide dot product whose reduction ends in a long chain.
+/// The transpose (the coefficient scatter) accumulates a run's power moments
+/// M_qrs = sum_v w_v tau_u^q tau_v^r tau_w^s and turns them into control values once.
+///
+/// Rounding: the per-point kernels form the same power-form polynomials (Horner on
+/// the span coefficients), so both evaluate the same function with errors of a few
+/// units in the last place of the largest term; the results agree to that level,
+/// not bit for bit. A point's value does not depend on which lane or run piece
+/// computes it (the tail of a piece runs the same code on padded lanes), so the
+/// results are the same for any thread count.
+///
+/// Only for uniform orders K = 2..6 (dispatch_order); K = 0 keeps the per-point kernels.
+
+#include <algorithm>
+#include <array>
+#include <vector>
+
+#include "vpffd/ffd/vertex_basis.h"
+
+namespace vpffd {
+
+/// Maximal runs of consecutive points (processing order) in one lattice cell.
+struct CellRuns {
+  std::vector<Index> start;                       ///< R + 1: run r is [start[r], start[r+1])
+  std::array<std::vector<std::int32_t>, 3> span;  ///< R per axis: the run's knot spans
+  Index size() const { return static_cast<Index>(span[0].size()); }
+};
+
+/// The runs of E's points (in the order E holds them).
+inline CellRuns cell_runs(const Embedding& E) {
+  CellRuns R;
+  const Index n = E.size();
+  for (Index v = 0; v < n; ++v) {
+    if (v > 0 && E.span[0][v] == E.span[0][v - 1] && E.span[1][v] == E.span[1][v - 1] &&
+        E.span[2][v] == E.span[2][v - 1])
+      continue;
+    R.start.push_back(v);
+    for (int a = 0; a < 3; ++a) R.span[a].push_back(E.span[a][v]);
+  }
+  R.start.push_back(n);
+  return R;
+}
+
+namespace detail {
+
+using Lanes = Eigen::Array<double, 4, 1>;
+
+/// The run's coefficient matrices (c[q K + i]: power q of function i) and its
+/// first control point.
+struct RunBasis {
+  const double* c[3];
+  Index base;
+};
+
+template <int K>
+VPFFD_ALWAYS_INLINE RunBasis run_basis(const BasisTables& T, const CellRuns& R, Index r) {
+  RunBasis rb;
+  Index first[3];
+  for (int a = 0; a < 3; ++a) {
+    const int s = R.span[a][r];
+    rb.c[a] = T.poly[a].span_coef(s);
+    first[a] = s - T.poly[a].degree;
+  }
+  rb.base = (first[0] * T.dims[1] + first[1]) * T.dims[2] + first[2];
+  return rb;
+}
+
+/// Dhat[(q K + r) K + s] = sum_ijk cu[q][i] cv[r][j] cw[s][k] D[base + i si + j sj + k].
+template <int K>
+void to_power(const RunBasis& rb, const double* D, Index si, Index sj, double* Dhat) {
+  double t1[K * K * K], t2[K * K * K];
+  const double *cu = rb.c[0], *cv = rb.c[1], *cw = rb.c[2];
+  for (int i = 0; i < K; ++i)
+    for (int j = 0; j < K; ++j) {
+      const double* d = D + rb.base + i * si + j * sj;
+      for (int s = 0; s < K; ++s) {
+        double x = 0;
+        for (int k = 0; k < K; ++k) x += cw[s * K + k] * d[k];
+        t1[(i * K + j) * K + s] = x;
+      }
+    }
+  for (int i = 0; i < K; ++i)
+    for (int r = 0; r < K; ++r)
+      for (int s = 0; s < K; ++s) {
+        double x = 0;
+        for (int j = 0; j < K; ++j) x += cv[r * K + j] * t1[(i * K + j) * K + s];
+        t2[(i * K + r) * K + s] = x;
+      }
+  for (int q = 0; q < K; ++q)
+    for (int r = 0; r < K; ++r)
+      for (int s = 0; s < K; ++s) {
+        double x = 0;
+        for (int i = 0; i < K; ++i) x += cu[q * K + i] * t2[(i * K + r) * K + s];
+        Dhat[(q * K + r) * K + s] = x;
+      }
+}
+
+/// acc[base + i si + j sj + k] += sum_qrs cu[q][i] cv[r][j] cw[s][k] M[(q K + r) K + s]:
+/// a run's power moments M back to its control points (the transpose of to_power).
+template <int K>
+void add_from_power(const RunBasis& rb, const double* M, Index si, Index sj, double* acc) {
+  double t1[K * K * K], t2[K * K * K];
+  const double *cu = rb.c[0], *cv = rb.c[1], *cw = rb.c[2];
+  for (int qr = 0; qr < K * K; ++qr)
+    for (int k = 0; k < K; ++k) {
+      double x = 0;
+      for (int s = 0; s < K; ++s) x += cw[s * K + k] * M[qr * K + s];
+      t1[qr * K + k] = x;
+    }
+  for (int q = 0; q < K; ++q)
+    for (int j = 0; j < K; ++j)
+      for (int k = 0; k < K; ++k) {
+        double x = 0;
+        for (int r = 0; r < K; ++r) x += cv[r * K + j] * t1[(q * K + r) * K + k];
+        t2[(q * K + j) * K + k] = x;
+      }
+  for (int i = 0; i < K; ++i)
+    for (int j = 0; j < K; ++j) {
+      double* a = acc + rb.base + i * si + j * sj;
+      for (int k = 0; k < K; ++k) {
+        double x = 0;
+        for (int q = 0; q < K; ++q) x += cu[q * K + i] * t2[(q * K + j) * K + k];
+        a[k] += x;
+      }
+    }
+}
+
+/// The cell polynomial with power coefficients C at four points (nested Horner).
+template <int K>
+VPFFD_ALWAYS_INLINE Lanes eval_power(const double* C, const Lanes& U, const Lanes& V, const Lanes& W) {
+  Lanes fu;
+  for (int q = K - 1; q >= 0; --q) {
+    Lanes fv;
+    for (int r = K - 1; r >= 0; --r) {
+      const double* c = C + (q * K + r) * K;
+      Lanes fw = Lanes::Constant(c[K - 1]);
+      for (int s = K - 2; s >= 0; --s) fw = fw * W + c[s];
+      fv = r == K - 1 ? fw : Lanes(fv * V + fw);
+    }
+    fu = q == K - 1 ? fv : Lanes(fu * U + fv);
+  }
+  return fu;
+}
+
+/// The local parameters of points [v, v + 4) clipped at `end`; lanes past it get 0
+/// (evaluated and discarded: the same code for every point, whichever lane).
+VPFFD_ALWAYS_INLINE void load_params(const Embedding& E, Index v, Index end, Lanes& U, Lanes& V, Lanes& W) {
+  if (v + 4 <= end) {
+    U = Eigen::Map<const Lanes>(E.tau[0].data() + v);
+    V = Eigen::Map<const Lanes>(E.tau[1].data() + v);
+    W = Eigen::Map<const Lanes>(E.tau[2].data() + v);
+  } else {
+    U = V = W = Lanes::Zero();
+    for (Index l = 0; v + l < end; ++l) {
+      U[l] = E.tau[0][v + l];
+      V[l] = E.tau[1][v + l];
+      W[l] = E.tau[2][v + l];
+    }
+  }
+}
+
+/// Calls f(run, lo, hi) for the pieces of the runs that cover [b, e), in order.
+template <class F>
+void for_each_run(const CellRuns& R, Index b, Index e, F&& f) {
+  if (b >= e) return;
+  Index r = static_cast<Index>(std::upper_bound(R.start.begin(), R.start.end(), b) - R.start.begin()) - 1;
+  for (Index lo = b; lo < e; ++r) {
+    const Index hi = std::min(e, R.start[r + 1]);
+    f(r, lo, hi);
+    lo = hi;
+  }
+}
+
+/// out[v] = sum_ijk B_ijk(u_v) P_ijk for v in [b, e) (ffd_kernel, run by run).
+template <int K>
+void ffd_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* Px, const double* Py,
+              const double* Pz, double* out, Index b, Index e) {
+  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
+  alignas(32) double C[3][K * K * K];
+  for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
+    const RunBasis rb = run_basis<K>(T, R, r);
+    to_power<K>(rb, Px, si, sj, C[0]);
+    to_power<K>(rb, Py, si, sj, C[1]);
+    to_power<K>(rb, Pz, si, sj, C[2]);
+    for (Index v = lo; v < hi; v += 4) {
+      Lanes U, V, W;
+      load_params(E, v, hi, U, V, W);
+      const Lanes x = eval_power<K>(C[0], U, V, W), y = eval_power<K>(C[1], U, V, W),
+                  z = eval_power<K>(C[2], U, V, W);
+      for (Index l = 0; l < 4 && v + l < hi; ++l) {
+        double* o = out + 3 * (v + l);
+        o[0] = x[l];
+        o[1] = y[l];
+        o[2] = z[l];
+      }
+    }
+  });
+}
+
+/// out[3 v + axis] += sum_c B_c(u_v) D[c] for v in [b, e) (gather_kernel, run by run).
+template <int K>
+void gather_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* D, double* out, int axis,
+                 Index b, Index e) {
+  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
+  alignas(32) double C[K * K * K];
+  for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
+    to_power<K>(run_basis<K>(T, R, r), D, si, sj, C);
+    for (Index v = lo; v < hi; v += 4) {
+      Lanes U, V, W;
+      load_params(E, v, hi, U, V, W);
+      const Lanes g = eval_power<K>(C, U, V, W);
+      for (Index l = 0; l < 4 && v + l < hi; ++l) out[3 * (v + l) + axis] += g[l];
+    }
+  });
+}
+
+/// gather_final_kernel run by run: moves point v by D along `axis`, writes it to
+/// row order[v] of `out` and returns sum_v w[v] (x_v[axis] - o) over [b, e), added
+/// point after point in processing order.
+template <int K>
+double gather_final_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* D,
+                         const double* X, int axis, const double* w, double o, const std::int32_t* order, double* out,
+                         Index b, Index e) {
+  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
+  alignas(32) double C[K * K * K];
+  double vsum = 0;
+  for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
+    to_power<K>(run_basis<K>(T, R, r), D, si, sj, C);
+    for (Index v = lo; v < hi; v += 4) {
+      Lanes U, V, W;
+      load_params(E, v, hi, U, V, W);
+      const Lanes g = eval_power<K>(C, U, V, W);
+      for (Index l = 0; l < 4 && v + l < hi; ++l) {
+        const Index u = v + l;
+        double p[3] = {X[3 * u], X[3 * u + 1], X[3 * u + 2]};
+        p[axis] += g[l];
+        vsum += w[u] * (p[axis] - o);
+        double* q = out + 3 * Index(order[u]);
+        q[0] = p[0];
+        q[1] = p[1];
+        q[2] = p[2];
+      }
+    }
+  });
+  return vsum;
+}
+
+/// Lane masks of scatter_runs' powers: kPowerMask<K>[q] lane l is 1 for l >= q,
+/// else 0, and kPowerFill<K>[q] = 1 - kPowerMask<K>[q].
+template <int K>
+inline const std::array<Eigen::Array<double, K, 1>, K> kPowerMask = [] {
+  std::array<Eigen::Array<double, K, 1>, K> m;
+  for (int q = 0; q < K; ++q)
+    for (int l = 0; l < K; ++l) m[q][l] = l >= q ? 1.0 : 0.0;
+  return m;
+}();
+template <int K>
+inline const std::array<Eigen::Array<double, K, 1>, K> kPowerFill = [] {
+  std::array<Eigen::Array<double, K, 1>, K> m;
+  for (int q = 0; q < K; ++q) m[q] = 1.0 - kPowerMask<K>[q];
+  return m;
+}();
+
+/// acc[c] += weight(v) * B_c(u_v) for v in [b, e) (scatter_kernel, run by run):
+/// weight(v) is called once per point, in order.
+template <int K, class Weight>
+void scatter_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, Weight&& weight, double* acc, Index b,
+                  Index e) {
+  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
+  using KVec = Eigen::Array<double, K, 1>;
+  alignas(32) double M[K * K * K];
+  for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
+    KVec m[K * K];
+    for (auto& x : m) x.setZero();
+    const double *tu = E.tau[0].data(), *tv = E.tau[1].data(), *tw = E.tau[2].data();
+    for (Index v = lo; v < hi; ++v) {
+      const double wv = weight(v);
+      // Powers of the local parameters: pu (times w), pv as scalars, pw as the
+      // vector along s, built in registers: lane s is the product of the factors
+      // (lane >= q ? tau : 1), q = 1..K-1, the same products as the scalar powers.
+      // (Lanes written one by one and read as a vector stall on store forwarding.)
+      double pu[K], pv[K];
+      pu[0] = wv;
+      pv[0] = 1.0;
+      for (int q = 1; q < K; ++q) {
+        pu[q] = pu[q - 1] * tu[v];
+        pv[q] = pv[q - 1] * tv[v];
+      }
+      const KVec t = KVec::Constant(tw[v]);
+      KVec pw = KVec::Ones();
+      for (int q = 1; q < K; ++q) pw *= kPowerMask<K>[q] * t + kPowerFill<K>[q];
+      KVec vw[K];
+      for (int j = 0; j < K; ++j) vw[j] = pv[j] * pw;
+      for (int i = 0; i < K; ++i)
+        for (int j = 0; j < K; ++j) m[i * K + j] += pu[i] * vw[j];
+    }
+    for (int qr = 0; qr < K * K; ++qr) Eigen::Map<KVec>(M + qr * K) = m[qr];
+    add_from_power<K>(run_basis<K>(T, R, r), M, si, sj, acc);
+  });
+}
+
+}  // namespace detail
+}  // namespace vpffd
