@@ -1,3 +1,6 @@
+// The CPU Deformer: frames against straightforward references (every option, both
+// coefficient methods, thread counts, moving rest meshes). Length: one file per
+// class under test, like the other suites.
 #include <cmath>
 
 #include "helpers.h"

@@ -1,5 +1,9 @@
 // Picking and ray-cast rendering with Embree 3. Embree errors are read back on
 // the thread that made the failing call and thrown as DeviceError by that call.
+//
+// Length: picking, refitting and rendering share RayScene::Impl (the Embree scene in
+// its normalised frame, the double-precision hit refinement, the cached normals);
+// split across files they would need that private state in a header.
 
 #include "vpffd/render/raycast.h"
 
