@@ -339,3 +339,10 @@ def test_demo_without_pillow_and_matplotlib_says_what_to_install(tmp_path, monke
     assert "no frames or GIFs written" in text and "no volume plot" in text
     assert not r["rendered"] and not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.gif"))
     assert (tmp_path / "volume.csv").exists()
+
+
+def test_benchmark_finds_the_shared_meshes(shared_meshes):
+    # The benchmark's own idea of ../shared (it moved with the CLI once and lost it).
+    from vpffd.cli import benchmark
+    assert benchmark.SHARED_MESHES.resolve() == shared_meshes.resolve()
+    assert "dragon_vrip_welded" in [name for name, _ in benchmark.default_meshes()]

@@ -23,7 +23,7 @@ from ..mesh import Mesh
 
 # VPFFD_SHARED_MESHES: where the meshes are on a machine without ../shared (a GPU machine).
 SHARED_MESHES = Path(os.environ.get("VPFFD_SHARED_MESHES")
-                     or Path(__file__).resolve().parents[2].parent / "shared" / "data" / "meshes")
+                     or Path(__file__).resolve().parents[3].parent / "shared" / "data" / "meshes")  # checkout/../shared
 
 
 def frame_edit(lat: Lattice) -> np.ndarray:
