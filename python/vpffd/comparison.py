@@ -161,10 +161,7 @@ def local_volume_change(deformer, control_points=None) -> np.ndarray:
     """(V,) det J at every vertex: the local volume ratio of the FFD with
     ``control_points`` (default: the lattice's), exact from the B-spline
     Jacobians. Below 1 compressed, above 1 expanded, <= 0 folded."""
-    J = deformer.jacobians(control_points)
-    return (J[:, 0, 0] * (J[:, 1, 1] * J[:, 2, 2] - J[:, 1, 2] * J[:, 2, 1])
-            - J[:, 0, 1] * (J[:, 1, 0] * J[:, 2, 2] - J[:, 1, 2] * J[:, 2, 0])
-            + J[:, 0, 2] * (J[:, 1, 0] * J[:, 2, 1] - J[:, 1, 1] * J[:, 2, 0]))
+    return deformer.jacobian_determinants(control_points)
 
 
 def _axes_of(result) -> str:

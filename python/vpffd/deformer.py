@@ -226,6 +226,12 @@ class Deformer:
         """(V, 3, 3) Jacobians dD/dx at the vertices (J[v, r, c] = dD_r/dx_c)."""
         return self._d.jacobians(self._P(control_points), self._threads).reshape(-1, 3, 3)
 
+    def jacobian_determinants(self, control_points=None) -> np.ndarray:
+        """(V,) det J at the vertices: the local volume ratio of the FFD (below 1
+        compressed, above 1 expanded, <= 0 folded); ``np.linalg.det(jacobians(P))``
+        without the (V, 3, 3) array."""
+        return self._d.jacobian_determinants(self._P(control_points), self._threads)
+
     def basis_matrix(self) -> sp.csr_matrix:
         """(V, N) scipy CSR basis matrix B: ``ffd(P) == B @ P.reshape(-1, 3)``.
         Column c is control point ``control_points.reshape(-1, 3)[c]`` (the distinct

@@ -81,6 +81,13 @@ void bind_deformer(py::module_& m) {
           },
           py::arg("control_points"), py::arg("threads") = 0)
       .def(
+          "jacobian_determinants",
+          [](const Deformer& d, RefV P, int threads) {
+            py::gil_scoped_release release;
+            return d.jacobian_determinants(P, threads);
+          },
+          py::arg("control_points"), py::arg("threads") = 0)
+      .def(
           "basis_matrix",
           [](const Deformer& d, int threads) {
             CsrMatrix A;

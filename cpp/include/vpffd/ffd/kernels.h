@@ -180,7 +180,7 @@ double gather_final_kernel(const BasisTables& T, const Embedding& E, const doubl
 /// K = 0: any orders (the plain triple loop, also the reference for tests).
 template <int K>
 void jacobian_points(const BasisTables& T, const Embedding& E, const double* Px, const double* Py, const double* Pz,
-                     const Vector3d& du_dx, double* J, Index b, Index e) {
+                     const Vector3d& du_dx, double* J, Index b, Index e, Index j_first = 0) {
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
   alignas(32) double N[3][kMaxOrder], dN[3][kMaxOrder];
   const double* P[3] = {Px, Py, Pz};
@@ -194,7 +194,7 @@ void jacobian_points(const BasisTables& T, const Embedding& E, const double* Px,
       first[a] = s - T.poly[a].degree;
     }
     const Index base = (first[0] * T.dims[1] + first[1]) * T.dims[2] + first[2];
-    double* out = J + 9 * v;
+    double* out = J + 9 * (v - j_first);  // J holds points j_first, j_first + 1, ...
     if constexpr (K > 0) {
       // Factored like the FFD kernels: per row i the K-vectors along k are
       // reduced over j with the v values and derivatives (t, dt), those over i
@@ -239,8 +239,9 @@ void jacobian_points(const BasisTables& T, const Embedding& E, const double* Px,
 /// J[v] = dD/dx at point v for v in [b, e) (see jacobian_points), on the
 /// uniform-order path when the lattice has one.
 inline void jacobian_kernel(const BasisTables& T, const Embedding& E, const double* Px, const double* Py,
-                            const double* Pz, const Vector3d& du_dx, double* J, Index b, Index e) {
-  dispatch_order(T, [&](auto K) { jacobian_points<decltype(K)::value>(T, E, Px, Py, Pz, du_dx, J, b, e); });
+                            const double* Pz, const Vector3d& du_dx, double* J, Index b, Index e,
+                            Index j_first = 0) {
+  dispatch_order(T, [&](auto K) { jacobian_points<decltype(K)::value>(T, E, Px, Py, Pz, du_dx, J, b, e, j_first); });
 }
 
 }  // namespace vpffd::detail

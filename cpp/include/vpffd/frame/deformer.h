@@ -188,6 +188,32 @@ class Deformer {
     return J;
   }
 
+  /// det dD/dx at the vertices (#V, caller order): the local volume ratio of the FFD
+  /// (below 1 compressed, above 1 expanded, <= 0 folded). The same values as the
+  /// determinants of jacobians(), without its #V x 9 arrays: blocks of Jacobians in a
+  /// small buffer. (A twist seam's mirroring flips two columns: det is unchanged.)
+  VectorXd jacobian_determinants(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
+    check_control_points(P, "jacobian_determinants");
+    const RowMatrixX3d Pe = expand_points(ties_, P);
+    const Eigen::VectorXd Px = Pe.col(0), Py = Pe.col(1), Pz = Pe.col(2);
+    const Vector3d s = parameter_scale(lattice_);
+    VectorXd det(n_vertices());
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      constexpr Index kBlock = 256;
+      std::vector<double> J(9 * kBlock);
+      for (Index c = b; c < e; c += kBlock) {
+        const Index ce = std::min(e, c + kBlock);
+        detail::jacobian_kernel(tables_, embedding_, Px.data(), Py.data(), Pz.data(), s, J.data(), c, ce, c);
+        for (Index i = c; i < ce; ++i) {
+          const double* j = J.data() + 9 * (i - c);
+          det[order_[i]] = j[0] * (j[4] * j[8] - j[5] * j[7]) - j[1] * (j[3] * j[8] - j[5] * j[6]) +
+                           j[2] * (j[3] * j[7] - j[4] * j[6]);
+        }
+      }
+    });
+    return det;
+  }
+
   /// #V x N vertex basis matrix: ffd(P) == B * P.
   CsrMatrix basis_matrix(int threads = 0) const {
     return vertex_basis_matrix(tables_, permute_embedding(embedding_, rank_), threads);
