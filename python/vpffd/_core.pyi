@@ -8,7 +8,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['BackendUnavailableError', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'RayScene', 'SolverError', 'VulkanDeformer', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
+__all__: list[str] = ['BackendUnavailableError', 'CorrectionOptions', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'Multires', 'MultiresFFD', 'RayScene', 'RbfMap', 'RbfWeights', 'SolverError', 'VulkanDeformer', 'VulkanMultires', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
 class InvalidInputError(ValueError):
     pass
 class SolverError(RuntimeError):
@@ -19,6 +19,110 @@ class BackendUnavailableError(RuntimeError):
     pass
 class DeviceError(RuntimeError):
     pass
+class CorrectionOptions:
+    """
+    The options of one frame, for every backend's deform() (vpffd::CorrectionOptions). Build with keywords: CorrectionOptions(axes='xy', rounds=3, ...).
+    """
+    def __init__(self, **kwargs) -> None:
+        ...
+    def __repr__(self) -> str:
+        ...
+    @property
+    def allow_open(self) -> bool:
+        """
+        Correct the cone volume of a mesh that is not closed.
+        """
+    @allow_open.setter
+    def allow_open(self, arg0: bool) -> None:
+        ...
+    @property
+    def axes(self) -> str:
+        """
+        Axes the control points move along, in order: 'xyz', 'xy', 'z', ...
+        """
+    @axes.setter
+    def axes(self, arg1: str) -> None:
+        ...
+    @property
+    def constraints(self) -> list[tuple[int, typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"], typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]]]:
+        """
+        Point constraints as (vertex, point, target): vertex >= 0 names a mesh vertex, -1 takes the rest-space point; target is where it must go (world units).
+        """
+    @constraints.setter
+    def constraints(self, arg1: collections.abc.Sequence[tuple[typing.SupportsInt | typing.SupportsIndex, typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"]]]) -> None:
+        ...
+    @property
+    def fixed(self) -> list[int] | None:
+        """
+        None, or 1 per control point that must not move (N,).
+        """
+    @fixed.setter
+    def fixed(self, arg1: collections.abc.Sequence[typing.SupportsInt | typing.SupportsIndex] | None) -> None:
+        ...
+    @property
+    def method(self) -> str:
+        """
+        How the volume coefficients are computed: 'traversal' or 'csr'.
+        """
+    @method.setter
+    def method(self, arg1: str) -> None:
+        ...
+    @property
+    def part_targets(self) -> list[float] | None:
+        """
+        None (each part keeps its rest volume) or one target volume per part.
+        """
+    @part_targets.setter
+    def part_targets(self, arg1: collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex] | None) -> None:
+        ...
+    @property
+    def preserve_volume(self) -> bool:
+        """
+        Correct the volume to target_volume (False: plain FFD plus any constraints).
+        """
+    @preserve_volume.setter
+    def preserve_volume(self, arg0: bool) -> None:
+        ...
+    @property
+    def record_timings(self) -> bool:
+        """
+        Add 'timings' (ms per pass) to the result (CPU backends).
+        """
+    @record_timings.setter
+    def record_timings(self, arg0: bool) -> None:
+        ...
+    @property
+    def rounds(self) -> int:
+        """
+        Cycles through the axes (1..64).
+        """
+    @rounds.setter
+    def rounds(self, arg1: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def target_volume(self) -> float | None:
+        """
+        None (the rest volume) or the volume to keep, world units cubed.
+        """
+    @target_volume.setter
+    def target_volume(self, arg1: typing.SupportsFloat | typing.SupportsIndex | None) -> None:
+        ...
+    @property
+    def threads(self) -> int:
+        """
+        0: all OpenMP threads; 1: serial.
+        """
+    @threads.setter
+    def threads(self, arg0: typing.SupportsInt | typing.SupportsIndex) -> None:
+        ...
+    @property
+    def weights(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"] | None:
+        """
+        None, or one weight > 0 per control point (N,).
+        """
+    @weights.setter
+    def weights(self, arg1: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 1]"] | None) -> None:
+        ...
 class LatticeSpec:
     """
     Structure of a B-spline lattice: degrees, knots, world box.
@@ -29,20 +133,6 @@ class LatticeSpec:
         """
         (N_ext, 3) extended control points of (N, 3) distinct ones (periodic.h).
         """
-    def tie_sources(self) -> list[int]:
-        """
-        Per extended control point, the distinct one it copies.
-        """
-    def wrap_points(self, points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> tuple:
-        """
-        (points wrapped into the box along periodic axes, mirrored flags).
-        """
-    @property
-    def seams(self) -> typing.Annotated[list[str], "FixedSize(3)"]:
-        ...
-    @property
-    def distinct_shape(self) -> typing.Annotated[list[int], "FixedSize(3)"]:
-        ...
     def parameters(self, points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
         """
         (n, 3) parameters (u, v, w) of world points.
@@ -50,6 +140,14 @@ class LatticeSpec:
     def rest_control_points(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
         """
         (N, 3) control points at the Greville abscissae.
+        """
+    def tie_sources(self) -> list[int]:
+        """
+        Per extended control point, the distinct one it copies.
+        """
+    def wrap_points(self, points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"], list[int]]:
+        """
+        (points wrapped into the box along periodic axes, mirrored flags).
         """
     @property
     def box_max(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]:
@@ -61,31 +159,41 @@ class LatticeSpec:
     def degree(self) -> typing.Annotated[list[int], "FixedSize(3)"]:
         ...
     @property
+    def distinct_shape(self) -> typing.Annotated[list[int], "FixedSize(3)"]:
+        ...
+    @property
     def knots(self) -> typing.Annotated[list[list[float]], "FixedSize(3)"]:
+        ...
+    @property
+    def seams(self) -> typing.Annotated[list[str], "FixedSize(3)"]:
         ...
     @property
     def shape(self) -> typing.Annotated[list[int], "FixedSize(3)"]:
         ...
 class Deformer:
-    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], lattice: LatticeSpec, outside: str = 'error', threads: typing.SupportsInt | typing.SupportsIndex = 0, parts: str | typing.Annotated[numpy.typing.ArrayLike, numpy.int64, "[m, 1]"] | None = None) -> None:
-        ...
-    def set_rest_vertices(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
-        ...
-    def rest_part_volumes(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
+    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], lattice: LatticeSpec, outside: str = 'error', threads: typing.SupportsInt | typing.SupportsIndex = 0, parts: typing.Any = None) -> None:
         ...
     def basis_matrix(self, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
         ...
-    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], preserve_volume: bool = True, axes: str = 'xyz', weights: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 1]"] | None = None, fixed: collections.abc.Sequence[typing.SupportsInt | typing.SupportsIndex] | None = None, constraints: collections.abc.Sequence[tuple[typing.SupportsInt | typing.SupportsIndex, typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"]]] = [], target_volume: typing.SupportsFloat | typing.SupportsIndex | None = None, method: str = 'traversal', threads: typing.SupportsInt | typing.SupportsIndex = 0, allow_open: bool = False, rounds: typing.SupportsInt | typing.SupportsIndex = 1, record_timings: bool = False, part_targets: collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex] | None = None) -> dict:
-        ...
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions = ...) -> dict:
+        """
+        One frame (vpffd::Deformer::deform): the result as a dict (vertices, control_points, offsets, volumes, steps, [part volumes], [timings]).
+        """
     def face_matrix(self, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
         ...
     def face_matrix_nnz(self, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> int:
         ...
     def ffd(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
         ...
+    def jacobian_determinants(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
+        ...
     def jacobians(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]"]:
         ...
+    def rest_part_volumes(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
+        ...
     def rest_volume(self, allow_open: bool = False) -> float:
+        ...
+    def set_rest_vertices(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
         ...
     def volume_coefficients(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], axis: typing.SupportsInt | typing.SupportsIndex, method: str = 'traversal', threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"], float]:
         ...
@@ -122,11 +230,104 @@ class Deformer:
     @property
     def vertex_parts(self) -> numpy.typing.NDArray[numpy.int32]:
         ...
+class Multires:
+    """
+    Two-scale decomposition (base + displacements).
+    """
+    bytes_per_vertex: typing.ClassVar[int] = 228
+    frame_bytes_per_vertex: typing.ClassVar[int] = 128
+    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], smoothing: typing.SupportsFloat | typing.SupportsIndex, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
+        ...
+    @property
+    def base(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        ...
+    @property
+    def displacements(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def extrapolated_fraction(self) -> float:
+        ...
+    @property
+    def foot_faces(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
+    @property
+    def foot_points(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def foot_uv(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def normal_coefficients(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def residuals(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def rest_normals(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        ...
+    @property
+    def tangents_u(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def tangents_v(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+class MultiresFFD:
+    """
+    FFD of a decomposition's base, reconstruction of the fine mesh.
+    """
+    frame_bytes_per_vertex: typing.ClassVar[int] = 140
+    def __init__(self, multires: Multires, lattice: LatticeSpec, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
+        ...
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
+        """
+        (vertices (V, 3), unit normals (V, 3)).
+        """
+    def foot_values_jacobians(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"], typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]"]]:
+        """
+        (D at the foot points (V, 3), Jacobians (V, 9)).
+        """
+class RbfWeights:
+    """
+    A solved RBF map (normalised coordinates).
+    """
+    @property
+    def A(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 3]"]:
+        ...
+    @property
+    def b(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]:
+        ...
+    @property
+    def w(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        ...
+class RbfMap:
+    """
+    Triharmonic RBF space deformation, factorised once per handle set.
+    """
+    def __init__(self, handles: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> None:
+        ...
+    def deform(self, multires: Multires, weights: RbfWeights, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
+        ...
+    def jacobians(self, weights: RbfWeights, points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]"]:
+        """
+        (n, 9) row-major Jacobians of the map.
+        """
+    def map(self, weights: RbfWeights, points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        ...
+    def solve(self, targets: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> RbfWeights:
+        ...
+    @property
+    def handles(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        ...
+    @property
+    def n_handles(self) -> int:
+        ...
 class VulkanDeformer:
     def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], lattice: LatticeSpec, outside: str = 'error', device: str = '', precision: str = 'auto') -> None:
         ...
-    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], preserve_volume: bool = True, axes: str = 'xyz', weights: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 1]"] | None = None, fixed: collections.abc.Sequence[typing.SupportsInt | typing.SupportsIndex] | None = None, constraints: collections.abc.Sequence[tuple[typing.SupportsInt | typing.SupportsIndex, typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"]]] = [], target_volume: typing.SupportsFloat | typing.SupportsIndex | None = None, method: str = 'traversal', threads: typing.SupportsInt | typing.SupportsIndex = 0, allow_open: bool = False, rounds: typing.SupportsInt | typing.SupportsIndex = 1, read_vertices: bool = True, normals: bool = False) -> dict:
-        ...
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions = ..., read_vertices: bool = True, normals: bool = False) -> dict:
+        """
+        One frame (see vpffd::vulkan::VulkanDeformer::deform), the options as for Deformer.deform. normals=True adds 'normals': the (V, 3) unit normals of the deformed surface, computed on the device in the same submission.
+        """
     def last_timings(self) -> dict:
         ...
     def vertices(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
@@ -143,13 +344,13 @@ class VulkanDeformer:
     def index_buffer_handle(self) -> int:
         ...
     @property
+    def origin(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]:
+        ...
+    @property
     def precision(self) -> str:
         """
         How the device sums: 'float64' or 'float-float'.
         """
-    @property
-    def origin(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]:
-        ...
     @property
     def scale(self) -> float:
         """
@@ -161,19 +362,57 @@ class VulkanDeformer:
     @property
     def vertex_order(self) -> numpy.typing.NDArray[numpy.int32]:
         ...
+class VulkanMultires:
+    """
+    The multiresolution frame of a decomposition's base FFD on a Vulkan device.
+    """
+    frame_bytes_per_vertex: typing.ClassVar[int] = 76
+    def __init__(self, multires: Multires, lattice: LatticeSpec, device: str = '', precision: str = 'auto') -> None:
+        ...
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> tuple[typing.Any, typing.Any]:
+        """
+        (vertices (V, 3), approximate unit normals (V, 3)), input order.
+        """
+    def last_timings(self) -> dict:
+        ...
+    @property
+    def device(self) -> dict:
+        ...
+    @property
+    def normal_buffer_handle(self) -> int:
+        ...
+    @property
+    def origin(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]:
+        ...
+    @property
+    def precision(self) -> str:
+        ...
+    @property
+    def scale(self) -> float:
+        ...
+    @property
+    def vertex_buffer_handle(self) -> int:
+        ...
+    @property
+    def vertex_order(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
 class RayScene:
     """
     A triangle mesh in an Embree scene (picking, rendering).
     """
-    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"]) -> None:
+    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], fast_build: bool = False, refit: bool = False) -> None:
         ...
     def intersect(self, origins: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], directions: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], tmin: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> tuple[numpy.typing.NDArray[numpy.bool], numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
         """
         (hit (n,) bool, face (n,) int64, uv (n, 2), distance (n,), point (n, 3)) of the first hits.
         """
-    def render(self, eye: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], target: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], up: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], fov: typing.SupportsFloat | typing.SupportsIndex, width: typing.SupportsInt | typing.SupportsIndex, height: typing.SupportsInt | typing.SupportsIndex, samples: typing.SupportsInt | typing.SupportsIndex = 1, background: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ..., base_color: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ..., colors: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 3]"] | None = None, normals: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 3]"] | None = None, points: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 3]"] | None = None, lines: typing.Annotated[numpy.typing.ArrayLike, numpy.int32, "[m, 2]"] | None = None, line_color: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ..., point_color: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ..., point_radius: typing.SupportsFloat | typing.SupportsIndex = 3.0, hidden_alpha: typing.SupportsFloat | typing.SupportsIndex = 0.25) -> tuple[numpy.typing.NDArray[numpy.uint8], numpy.typing.NDArray[numpy.float32]]:
+    def render(self, eye: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], target: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], up: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], fov: typing.SupportsFloat | typing.SupportsIndex, width: typing.SupportsInt | typing.SupportsIndex, height: typing.SupportsInt | typing.SupportsIndex, samples: typing.SupportsInt | typing.SupportsIndex = 1, background: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ..., base_color: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ..., colors: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 3]"] | None = None, normals: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 3]"] | None = None, points: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 3]"] | None = None, lines: typing.Annotated[numpy.typing.ArrayLike, numpy.int32, "[m, 2]"] | None = None, line_color: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ..., point_color: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ..., point_radius: typing.SupportsFloat | typing.SupportsIndex = 3.0, hidden_alpha: typing.SupportsFloat | typing.SupportsIndex = 0.25, line_alpha: typing.SupportsFloat | typing.SupportsIndex = 1.0, line_width: typing.SupportsFloat | typing.SupportsIndex = 1.0, adaptive: bool = True) -> tuple[numpy.typing.NDArray[numpy.uint8], numpy.typing.NDArray[numpy.float32]]:
         """
         (image (H, W, 3) uint8, depth (H, W) float32 distances, inf on the background).
+        """
+    def set_vertices(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> None:
+        """
+        Moves the vertices (same count, same faces); refits the BVH of a scene built with refit=True.
         """
     @property
     def n_faces(self) -> int:
@@ -195,16 +434,14 @@ def camera_ray(eye: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3,
     """
     Unit direction of the ray through the centre of pixel (x, y).
     """
-def check_mesh(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"]) -> dict:
-    """
-    Defect counts of a triangle mesh (see vpffd/mesh/check.h).
-    """
 def check_folds(lattice: LatticeSpec, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], depth: typing.SupportsInt | typing.SupportsIndex = 3, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> dict:
     """
     Fold-over check of a lattice: a dict with the verdict, per-cell arrays and the witness.
     """
-def periodic_uniform_knots(n: typing.SupportsInt | typing.SupportsIndex, degree: typing.SupportsInt | typing.SupportsIndex, lo: typing.SupportsFloat | typing.SupportsIndex = 0.0, hi: typing.SupportsFloat | typing.SupportsIndex = 1.0) -> list[float]:
-    ...
+def check_mesh(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"]) -> dict:
+    """
+    Defect counts of a triangle mesh (see vpffd/mesh/check.h).
+    """
 def clamped_uniform_knots(n: typing.SupportsInt | typing.SupportsIndex, degree: typing.SupportsInt | typing.SupportsIndex, lo: typing.SupportsFloat | typing.SupportsIndex = 0.0, hi: typing.SupportsFloat | typing.SupportsIndex = 1.0) -> list[float]:
     ...
 def deformed_normals_exact(jacobians: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]", "flags.c_contiguous"], rest_normals: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
@@ -239,6 +476,8 @@ def orient_faces(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64],
     """
     (faces, flipped_faces, conflicts, inward_components): consistent winding, closed components outward.
     """
+def periodic_uniform_knots(n: typing.SupportsInt | typing.SupportsIndex, degree: typing.SupportsInt | typing.SupportsIndex, lo: typing.SupportsFloat | typing.SupportsIndex = 0.0, hi: typing.SupportsFloat | typing.SupportsIndex = 1.0) -> list[float]:
+    ...
 def point_basis_matrix(lattice: LatticeSpec, points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], outside: str = 'error') -> tuple:
     ...
 def read_mesh(path: str) -> dict:
@@ -249,7 +488,7 @@ def require_closed(arg0: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m
     ...
 def scale(points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], factors: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], center: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"]) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
     ...
-def signed_volume(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], origin: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ...) -> float:
+def signed_volume(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], origin: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ..., check: bool = True) -> float:
     ...
 def taper(points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], factor: typing.SupportsFloat | typing.SupportsIndex, axis: typing.SupportsInt | typing.SupportsIndex, center: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], lo: typing.SupportsFloat | typing.SupportsIndex = 0.0, hi: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
     ...
@@ -273,5 +512,5 @@ __version__: str = '0.1.0'
 has_embree: bool = True
 has_openmesh: bool = True
 has_vulkan: bool = True
-max_fold_depth: int
-max_subcells_per_cell: int
+max_fold_depth: int = 10
+max_subcells_per_cell: int = 4096
