@@ -250,3 +250,19 @@ def test_set_rest_vertices_on_vulkan_is_honest():
     with pytest.raises(vpffd.BackendUnavailableError, match="CPU backends only"):
         d.set_rest_vertices(X)
     assert np.array_equal(d.rest_vertices, before)  # nothing moved
+
+
+def test_a_part_that_leaves_the_lattice_is_named():
+    mesh, labels = spheres(3)
+    lat = vpffd.Lattice.around(mesh, shape=(6, 5, 5))
+    d = vpffd.Deformer(mesh, lat, backend="serial", parts=labels)
+    X = mesh.vertices.copy()
+    X[labels == 20] += [2.0, 0, 0]  # the third sphere swims out of the box, partly
+    with pytest.raises(InvalidInputError, match=r"parts outside: part 2 \(label 20\): \d+ of its 162 vertices$"):
+        d.set_rest_vertices(X)
+    assert np.array_equal(d.rest_vertices, mesh.vertices)  # unchanged
+    # Without parts the error is embed's alone.
+    e = vpffd.Deformer(mesh, lat, backend="serial")
+    with pytest.raises(InvalidInputError) as err:
+        e.set_rest_vertices(X)
+    assert "parts outside" not in str(err.value)

@@ -262,7 +262,7 @@ class Deformer {
     try {
       E = embed(lattice_, V, policy_, threads);
     } catch (const InvalidInputError& e) {
-      throw InvalidInputError(std::string(where) + ": " + e.what());
+      throw InvalidInputError(std::string(where) + ": " + e.what() + parts_outside(V));
     }
     // Frames run in cell order (vertex_order.h); the faces are renumbered to match
     // and reordered too (below), so face sums round differently from unsorted ones.
@@ -349,6 +349,35 @@ class Deformer {
     rest_part_volumes_ = std::move(rest_parts);
     std::lock_guard<std::mutex> lock(face_matrix_mutex_);
     face_matrix_.reset();  // built from the old embedding and faces
+  }
+
+  /// With parts: which of them have vertices outside the lattice box (the test of
+  /// embed()), to name them in its error, e.g. an object that swam out of the lattice.
+  std::string parts_outside(const Eigen::Ref<const RowMatrixX3d>& V) const {
+    if (!has_parts_ || policy_ != OutsidePolicy::Error || V.rows() != Index(parts_.vertex_part.size())) return {};
+    std::vector<Index> out(parts_.count, 0), size(parts_.count, 0);
+    const bool periodic = lattice_.any_periodic();
+    for (Index v = 0; v < V.rows(); ++v) {
+      const int k = parts_.vertex_part[v];
+      ++size[k];
+      const Vector3d x = periodic ? wrap_point(lattice_, V.row(v).transpose()) : Vector3d(V.row(v).transpose());
+      bool outside = !x.allFinite();
+      for (int a = 0; a < 3; ++a) {
+        const double tol = 1e-12 * (lattice_.box_max[a] - lattice_.box_min[a]);
+        outside |= x[a] < lattice_.box_min[a] - tol || x[a] > lattice_.box_max[a] + tol;
+      }
+      out[k] += outside;
+    }
+    std::string named;
+    int n = 0;
+    for (int k = 0; k < parts_.count; ++k) {
+      if (out[k] == 0) continue;
+      if (n++ < 8)
+        named += detail::concat(n > 1 ? ", " : "", "part ", k, " (label ", parts_.labels[k], "): ", out[k], " of its ",
+                                size[k], " vertices");
+    }
+    if (n == 0) return {};
+    return detail::concat("; parts outside: ", named, n > 8 ? detail::concat(" and ", n - 8, " more") : "");
   }
 
   void check_control_points(const Eigen::Ref<const RowMatrixX3d>& P, const char* where) const {
