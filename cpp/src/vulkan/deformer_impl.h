@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "context.h"
+#include "pipelines.h"
 #include "shaders/layout.h"
 #include "vk_handle.h"
 #include "vpffd/backend/vulkan.h"
@@ -128,12 +129,7 @@ struct VulkanDeformer::Impl {
 
   // Declared after `dev` and destroyed before it, in reverse order; the destructor
   // first waits for a submission still running.
-  Owned<VkDescriptorSetLayout> dsl;
-  Owned<VkPipelineLayout> layout;
-  Owned<VkDescriptorPool> pool;
-  VkDescriptorSet set = VK_NULL_HANDLE;  // freed with the pool
-  Owned<VkShaderModule> modules[kPipes];
-  Owned<VkPipeline> pipes[kPipes];
+  detail::ComputePipelines pl;  // the descriptor set and one pipeline per Pipe
   Owned<VkCommandPool> cmd_pool;  // frees the command buffers below
   VkCommandBuffer cmd = VK_NULL_HANDLE;  // one-time work: uploads, restores
   // Copies the device vertices to rb_X; recorded once, submitted after a frame in the
@@ -175,14 +171,7 @@ struct VulkanDeformer::Impl {
   // ---- command helpers --------------------------------------------------------
   // A submission whose wait failed may still run: its command buffers and the fence
   // must not be reused before it ends.
-  void settle() {
-    if (!pending) return;
-    const VkResult r = vkWaitForFences(d, 1, &fence.get(), VK_TRUE, 600ull * 1000 * 1000 * 1000);
-    if (r == VK_TIMEOUT) throw DeviceError("vulkan: an earlier submission is still running after 600 s (device hung?)");
-    detail::check(r, "vkWaitForFences");
-    pending = false;
-    detail::check(vkResetFences(d, 1, &fence.get()), "vkResetFences");
-  }
+  void settle() { detail::settle(d, fence.get(), pending); }
 
   void begin(VkCommandBuffer cb, bool once) {
     settle();
@@ -195,20 +184,7 @@ struct VulkanDeformer::Impl {
 
   // Submits `cbs` (in order, one vkQueueSubmit) and waits.
   void submit_and_wait(const VkCommandBuffer* cbs, std::uint32_t n) {
-    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-    si.commandBufferCount = n;
-    si.pCommandBuffers = cbs;
-    {
-      std::lock_guard<std::mutex> lock(dev->queue_mutex);
-      detail::check(vkQueueSubmit(dev->queue, 1, &si, fence.get()), "vkQueueSubmit");
-    }
-    pending = true;
-    // Generous: lavapipe on a big mesh is slow, but a hung device must not hang the caller.
-    const VkResult r = vkWaitForFences(d, 1, &fence.get(), VK_TRUE, 600ull * 1000 * 1000 * 1000);
-    if (r == VK_TIMEOUT) throw DeviceError("vulkan: vkWaitForFences timed out after 600 s (device hung?)");
-    detail::check(r, "vkWaitForFences");
-    pending = false;
-    detail::check(vkResetFences(d, 1, &fence.get()), "vkResetFences");
+    detail::submit_and_wait(*dev, fence.get(), pending, cbs, n);
   }
   void submit_and_wait() {
     detail::check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
@@ -235,8 +211,8 @@ struct VulkanDeformer::Impl {
   }
 
   void dispatch(VkCommandBuffer cb, Pipe p, std::uint32_t groups, const Push& pc) {
-    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipes[p].get());
-    vkCmdPushConstants(cb, layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &pc);
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.pipes[p].get());
+    vkCmdPushConstants(cb, pl.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &pc);
     vkCmdDispatch(cb, groups, 1, 1);
     barrier(cb);
   }
@@ -257,7 +233,7 @@ struct VulkanDeformer::Impl {
   void bind(int i) {
     VkDescriptorBufferInfo info{buf[i].handle(), 0, VK_WHOLE_SIZE};
     VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-    w.dstSet = set;
+    w.dstSet = pl.set;
     w.dstBinding = static_cast<std::uint32_t>(i);
     w.descriptorCount = 1;
     w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
@@ -277,7 +253,7 @@ struct VulkanDeformer::Impl {
     const size_t cap = std::max<size_t>(bytes, 2 * buf[i].size());
     buf[i] = Buffer(*dev, cap, Buffer::DeviceLocal, what);
     if (up) *up = Buffer(*dev, cap, Buffer::Upload, what);
-    if (set) bind(i);
+    if (pl.set) bind(i);
   }
 
   // ---- set-up ------------------------------------------------------------------

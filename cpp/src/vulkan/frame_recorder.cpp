@@ -52,7 +52,7 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
   if (shape.mode == Shape::HostOffsets) copy(cb, up_delta, buf[bDelta], 24 * N);
   if (steps) vkCmdFillBuffer(cb, buf[bDelta].handle(), 0, VK_WHOLE_SIZE, 0);
   barrier(cb);
-  vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, layout.get(), 0, 1, &set, 0, nullptr);
+  vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
   Push pc;
   dispatch(cb, kFfd, g_vert, pc);
   // With device steps the first one measures the plain FFD's volume.

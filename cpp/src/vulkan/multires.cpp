@@ -17,6 +17,7 @@
 #include <numeric>
 
 #include "context.h"
+#include "pipelines.h"
 #include "deformer_impl.h"  // put_reals, ms_since
 #include "shaders/multires_layout.h"
 #include "vk_handle.h"
@@ -46,12 +47,7 @@ struct VulkanMultires::Impl {
   Buffer buf[kNumBuf];
   Buffer up_P, rb_X, rb_N;
 
-  Owned<VkDescriptorSetLayout> dsl;
-  Owned<VkPipelineLayout> layout;
-  Owned<VkDescriptorPool> pool;
-  VkDescriptorSet set = VK_NULL_HANDLE;  // freed with the pool
-  Owned<VkShaderModule> module;
-  Owned<VkPipeline> pipe;
+  detail::ComputePipelines pl;  // the descriptor set and the one pipeline
   Owned<VkCommandPool> cmd_pool;
   VkCommandBuffer frame_cb = VK_NULL_HANDLE;  // recorded once, submitted every frame
   Owned<VkFence> fence;
@@ -72,95 +68,12 @@ struct VulkanMultires::Impl {
 };
 
 void VulkanMultires::Impl::submit_and_wait(VkCommandBuffer cb) {
-  if (pending) {
-    const VkResult r = vkWaitForFences(d, 1, &fence.get(), VK_TRUE, 600ull * 1000 * 1000 * 1000);
-    if (r == VK_TIMEOUT) throw DeviceError("vulkan: an earlier submission is still running after 600 s (device hung?)");
-    detail::check(r, "vkWaitForFences");
-    pending = false;
-    detail::check(vkResetFences(d, 1, &fence.get()), "vkResetFences");
-  }
-  VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-  si.commandBufferCount = 1;
-  si.pCommandBuffers = &cb;
-  {
-    std::lock_guard<std::mutex> lock(dev->queue_mutex);
-    detail::check(vkQueueSubmit(dev->queue, 1, &si, fence.get()), "vkQueueSubmit");
-  }
-  pending = true;
-  const VkResult r = vkWaitForFences(d, 1, &fence.get(), VK_TRUE, 600ull * 1000 * 1000 * 1000);
-  if (r == VK_TIMEOUT) throw DeviceError("vulkan: vkWaitForFences timed out after 600 s (device hung?)");
-  detail::check(r, "vkWaitForFences");
-  pending = false;
-  detail::check(vkResetFences(d, 1, &fence.get()), "vkResetFences");
+  detail::submit_and_wait(*dev, fence.get(), pending, &cb, 1);
 }
 
 void VulkanMultires::Impl::create_pipeline(const std::array<std::int32_t, 9>& spec) {
-  VkDescriptorSetLayoutBinding b[kNumBuf];
-  for (int i = 0; i < kNumBuf; ++i)
-    b[i] = {static_cast<std::uint32_t>(i), VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
-  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  li.bindingCount = kNumBuf;
-  li.pBindings = b;
-  VkDescriptorSetLayout dsl_h = VK_NULL_HANDLE;
-  detail::check(vkCreateDescriptorSetLayout(d, &li, nullptr, &dsl_h), "vkCreateDescriptorSetLayout");
-  dsl.adopt(d, dsl_h, vkDestroyDescriptorSetLayout);
-  VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-  pli.setLayoutCount = 1;
-  pli.pSetLayouts = &dsl.get();
-  VkPipelineLayout layout_h = VK_NULL_HANDLE;
-  detail::check(vkCreatePipelineLayout(d, &pli, nullptr, &layout_h), "vkCreatePipelineLayout");
-  layout.adopt(d, layout_h, vkDestroyPipelineLayout);
-
-  VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kNumBuf};
-  VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  pi.maxSets = 1;
-  pi.poolSizeCount = 1;
-  pi.pPoolSizes = &ps;
-  VkDescriptorPool pool_h = VK_NULL_HANDLE;
-  detail::check(vkCreateDescriptorPool(d, &pi, nullptr, &pool_h), "vkCreateDescriptorPool");
-  pool.adopt(d, pool_h, vkDestroyDescriptorPool);
-  VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-  ai.descriptorPool = pool.get();
-  ai.descriptorSetCount = 1;
-  ai.pSetLayouts = &dsl.get();
-  detail::check(vkAllocateDescriptorSets(d, &ai, &set), "vkAllocateDescriptorSets");
-  VkDescriptorBufferInfo info[kNumBuf];
-  VkWriteDescriptorSet w[kNumBuf];
-  for (int i = 0; i < kNumBuf; ++i) {
-    info[i] = {buf[i].handle(), 0, VK_WHOLE_SIZE};
-    w[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-    w[i].dstSet = set;
-    w[i].dstBinding = static_cast<std::uint32_t>(i);
-    w[i].descriptorCount = 1;
-    w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    w[i].pBufferInfo = &info[i];
-  }
-  vkUpdateDescriptorSets(d, kNumBuf, w, 0, nullptr);
-
-  constexpr std::uint32_t kSpec = 9;
-  VkSpecializationMapEntry entries[kSpec];
-  for (std::uint32_t i = 0; i < kSpec; ++i) entries[i] = {i, i * 4u, 4};
-  VkSpecializationInfo si{kSpec, entries, sizeof(spec), spec.data()};
-  const Spv& code = (ff ? kMultiresShadersFF : kMultiresShaders64)[kMultires];
-  VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-  mi.codeSize = code.bytes;
-  mi.pCode = code.code;
-  VkShaderModule module_h = VK_NULL_HANDLE;
-  detail::check(vkCreateShaderModule(d, &mi, nullptr, &module_h), "vkCreateShaderModule");
-  module.adopt(d, module_h, vkDestroyShaderModule);
-  VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-  ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-  ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-  ci.stage.module = module.get();
-  ci.stage.pName = "main";
-  ci.stage.pSpecializationInfo = &si;
-  ci.layout = layout.get();
-  VkPipeline pipe_h = VK_NULL_HANDLE;
-  const VkResult r = vkCreateComputePipelines(d, VK_NULL_HANDLE, 1, &ci, nullptr, &pipe_h);
-  if (r != VK_SUCCESS)
-    throw DeviceError(std::string("vulkan: vkCreateComputePipelines (") + code.name +
-                      ") failed: " + detail::result_string(r));
-  pipe.adopt(d, pipe_h, vkDestroyPipeline);
+  detail::create_compute_pipelines(d, buf, kNumBuf, 0, spec.data(), std::uint32_t(spec.size()),
+                                   &(ff ? kMultiresShadersFF : kMultiresShaders64)[kMultires], 1, pl);
 }
 
 void VulkanMultires::Impl::record_frame() {
@@ -187,8 +100,8 @@ void VulkanMultires::Impl::record_frame() {
   const VkBufferCopy cp{0, 0, 12 * VkDeviceSize(N)};
   vkCmdCopyBuffer(frame_cb, up_P.handle(), buf[bP].handle(), 1, &cp);
   barrier(VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, tr, cs);
-  vkCmdBindPipeline(frame_cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipe.get());
-  vkCmdBindDescriptorSets(frame_cb, VK_PIPELINE_BIND_POINT_COMPUTE, layout.get(), 0, 1, &set, 0, nullptr);
+  vkCmdBindPipeline(frame_cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.pipes[0].get());
+  vkCmdBindDescriptorSets(frame_cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
   vkCmdDispatch(frame_cb, groups, 1, 1);
   barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT, cs, tr);
   const VkBufferCopy cx{0, 0, 12 * VkDeviceSize(nv)};

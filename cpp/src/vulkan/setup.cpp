@@ -15,76 +15,8 @@ using detail::ms_since;
 using detail::put_reals;
 
 void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 11>& spec) {
-  VkDescriptorSetLayoutBinding b[kBindings];
-  for (int i = 0; i < kBindings; ++i)
-    b[i] = {static_cast<std::uint32_t>(i), VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
-  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  li.bindingCount = kBindings;
-  li.pBindings = b;
-  VkDescriptorSetLayout dsl_h = VK_NULL_HANDLE;
-  detail::check(vkCreateDescriptorSetLayout(d, &li, nullptr, &dsl_h), "vkCreateDescriptorSetLayout");
-  dsl.adopt(d, dsl_h, vkDestroyDescriptorSetLayout);
-  VkPushConstantRange pr{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push)};
-  VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-  pli.setLayoutCount = 1;
-  pli.pSetLayouts = &dsl.get();
-  pli.pushConstantRangeCount = 1;
-  pli.pPushConstantRanges = &pr;
-  VkPipelineLayout layout_h = VK_NULL_HANDLE;
-  detail::check(vkCreatePipelineLayout(d, &pli, nullptr, &layout_h), "vkCreatePipelineLayout");
-  layout.adopt(d, layout_h, vkDestroyPipelineLayout);
-
-  VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kBindings};
-  VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  pi.maxSets = 1;
-  pi.poolSizeCount = 1;
-  pi.pPoolSizes = &ps;
-  VkDescriptorPool pool_h = VK_NULL_HANDLE;
-  detail::check(vkCreateDescriptorPool(d, &pi, nullptr, &pool_h), "vkCreateDescriptorPool");
-  pool.adopt(d, pool_h, vkDestroyDescriptorPool);
-  VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-  ai.descriptorPool = pool.get();
-  ai.descriptorSetCount = 1;
-  ai.pSetLayouts = &dsl.get();
-  detail::check(vkAllocateDescriptorSets(d, &ai, &set), "vkAllocateDescriptorSets");
-  VkDescriptorBufferInfo info[kBindings];
-  VkWriteDescriptorSet w[kBindings];
-  for (int i = 0; i < kBindings; ++i) {
-    info[i] = {buf[i].handle(), 0, VK_WHOLE_SIZE};
-    w[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-    w[i].dstSet = set;
-    w[i].dstBinding = static_cast<std::uint32_t>(i);
-    w[i].descriptorCount = 1;
-    w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    w[i].pBufferInfo = &info[i];
-  }
-  vkUpdateDescriptorSets(d, kBindings, w, 0, nullptr);
-
-  VkSpecializationMapEntry entries[11];
-  for (std::uint32_t i = 0; i < 11; ++i) entries[i] = {i, i * 4u, 4};
-  VkSpecializationInfo si{11, entries, sizeof(spec), spec.data()};
-  for (int p = 0; p < kPipes; ++p) {
-    VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-    const Spv* shaders = ff ? kShadersFF : kShaders64;
-    mi.codeSize = shaders[p].bytes;
-    mi.pCode = shaders[p].code;
-    VkShaderModule module_h = VK_NULL_HANDLE;
-    detail::check(vkCreateShaderModule(d, &mi, nullptr, &module_h), "vkCreateShaderModule");
-    modules[p].adopt(d, module_h, vkDestroyShaderModule);
-    VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-    ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = modules[p].get();
-    ci.stage.pName = "main";
-    ci.stage.pSpecializationInfo = &si;
-    ci.layout = layout.get();
-    VkPipeline pipe_h = VK_NULL_HANDLE;
-    const VkResult r = vkCreateComputePipelines(d, VK_NULL_HANDLE, 1, &ci, nullptr, &pipe_h);
-    if (r != VK_SUCCESS)
-      throw DeviceError(std::string("vulkan: vkCreateComputePipelines (") + kShaders64[p].name +
-                        ") failed: " + detail::result_string(r));
-    pipes[p].adopt(d, pipe_h, vkDestroyPipeline);
-  }
+  detail::create_compute_pipelines(d, buf, kBindings, sizeof(Push), spec.data(), std::uint32_t(spec.size()),
+                                   ff ? kShadersFF : kShaders64, kPipes, pl);
 }
 
 void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) {
