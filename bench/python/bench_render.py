@@ -3,9 +3,11 @@
 500k-vertex mesh at 1600 x 600 on 2 cores), with its parts.
 
     OMP_NUM_THREADS=2 .venv/bin/python bench/python/bench_render.py [--subdiv 8] [--repeats 5]
+        [--size 1600x600] [--mesh PATH]
 
 The mesh is the README's pear figure (vpffd._figure) on icosphere(subdiv):
-subdiv 8 gives 655,362 vertices and 1,310,720 triangles. Prints medians of
+subdiv 8 gives 655,362 vertices and 1,310,720 triangles; --mesh times a closed
+mesh file instead (e.g. ../shared/data/meshes' dragon, 435,545 vertices). Prints medians of
 --repeats runs and the load average (the machine may be shared).
 """
 import argparse

@@ -6,6 +6,7 @@
 /// coordinate separately.
 
 #include <algorithm>
+#include <type_traits>
 #include <vector>
 
 #include "vpffd/core/parallel.h"
@@ -99,6 +100,45 @@ VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const std::int32_t* ip, c
   return w * (1.0 / 6.0);
 }
 
+/// Calls f(std::integral_constant<int, axis>{}): the axis as a compile-time
+/// constant, so coordinate reads in the weight loops are loads at fixed offsets.
+template <class F>
+decltype(auto) with_axis(int axis, F&& f) {
+  if (axis == 0) return f(std::integral_constant<int, 0>{});
+  if (axis == 1) return f(std::integral_constant<int, 1>{});
+  return f(std::integral_constant<int, 2>{});
+}
+
+/// The vertex pass every coefficient method shares: w_v = weight_of(v), then
+/// alpha_c = sum_v w_v B_c(u_v) and volume = sum_v (x_v - o)_ax w_v. Vertices go
+/// in fixed chunks, each with its own N-double buffer, summed in chunk order: no
+/// atomics, the same result for any thread count.
+/// @param[out] weights  if not null, #V: the w_v
+template <int ax, class WeightOf>
+AxisCoefficients weighted_scatter(const BasisTables& T, const Embedding& E, const CellRuns* runs, const double* X,
+                                  double o, int threads, double* weights, WeightOf&& weight_of) {
+  const Index nv = E.size();
+  const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
+  const int chunks = scatter_chunks(nv, N);
+  std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
+  std::vector<double> vol(chunks, 0.0);
+  parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
+    double vsum = 0;
+    auto weight = [&](Index v) {
+      const double w = weight_of(v);
+      if (weights) weights[v] = w;
+      vsum += (X[3 * v + ax] - o) * w;
+      return w;
+    };
+    scatter(T, E, runs, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
+    vol[c] = vsum;
+  });
+  AxisCoefficients out;
+  out.alpha = sum_chunks(buf, chunks, N, threads);
+  for (double v : vol) out.volume += v;
+  return out;
+}
+
 }  // namespace detail
 
 /// O(F + N) single traversal (Section 7): each face's normal component n_f is
@@ -117,8 +157,6 @@ VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const std::int32_t* ip, c
 inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embedding& E, const VertexFaces& vf,
                                                const double* X, const Eigen::Ref<const RowMatrixX3i>& F, int axis,
                                                const Vector3d& origin, int threads = 0, bool cone = false) {
-  const Index nv = E.size();
-  const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
   std::vector<double> nf(F.rows() * (cone ? 3 : 1));
   if (cone) {
     const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
@@ -133,43 +171,30 @@ inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embed
   } else {
     face_normal_component(X, F, axis, nf.data(), threads);
   }
-  const int chunks = detail::scatter_chunks(nv, N);
-  std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
-  std::vector<double> vol(chunks, 0.0);
   const std::int32_t* ip = vf.indptr.data();
   const std::int32_t* fa = vf.faces.data();
-  const double o = origin[axis];
-  parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
-    double vsum = 0;
-    auto weight = [&](Index v) {
-      double w = 0;
-      if (cone) {
-        // A face that names v at two corners (a degenerate face, allowed on open
-        // meshes) is listed twice in a row for v: each entry takes the next such corner,
-        // so the two corner weights cancel as they must (the face's cone has no volume).
-        int c = -1;
-        for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) {
-          const Index f = fa[p];
-          c = (p > ip[v] && fa[p - 1] == f) ? c + 1 : 0;
-          while (F(f, c) != v) ++c;
-          w += nf[3 * f + c];
-        }
-      } else {
-        for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) w += nf[fa[p]];
+  auto weight_of = [&](Index v) {
+    double w = 0;
+    if (cone) {
+      // A face that names v at two corners (a degenerate face, allowed on open
+      // meshes) is listed twice in a row for v: each entry takes the next such corner,
+      // so the two corner weights cancel as they must (the face's cone has no volume).
+      int c = -1;
+      for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) {
+        const Index f = fa[p];
+        c = (p > ip[v] && fa[p - 1] == f) ? c + 1 : 0;
+        while (F(f, c) != v) ++c;
+        w += nf[3 * f + c];
       }
-      w *= (1.0 / 6.0);
-      vsum += (X[3 * v + axis] - o) * w;
-      return w;
-    };
-    detail::dispatch_order(T, [&](auto K) {
-      detail::scatter_kernel<decltype(K)::value>(T, E, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
-    });
-    vol[c] = vsum;
+    } else {
+      for (std::int32_t p = ip[v]; p < ip[v + 1]; ++p) w += nf[fa[p]];
+    }
+    return w * (1.0 / 6.0);
+  };
+  return detail::with_axis(axis, [&](auto axis_c) {
+    return detail::weighted_scatter<decltype(axis_c)::value>(T, E, nullptr, X, origin[axis], threads, nullptr,
+                                                             weight_of);
   });
-  AxisCoefficients out;
-  out.alpha = detail::sum_chunks(buf, chunks, N, threads);
-  for (double v : vol) out.volume += v;
-  return out;
 }
 
 
@@ -189,38 +214,16 @@ inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding
                                            const double* X, int axis, const Vector3d& origin, int threads = 0,
                                            bool cone = false, double* weights = nullptr,
                                            const CellRuns* runs = nullptr) {
-  const Index nv = E.size();
-  const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
-  const int chunks = detail::scatter_chunks(nv, N);
-  std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
-  std::vector<double> vol(chunks, 0.0);
   const std::int32_t* ip = rings.indptr.data();
   const std::int32_t* pr = rings.pairs.data();
-  const double o = origin[axis];
-  // The axis as a compile-time constant: the neighbours' coordinates are then
-  // loads at fixed offsets (this loop is a third of a frame's instructions).
-  auto pass = [&](auto axis_c) {
+  return detail::with_axis(axis, [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value, a1 = (ax + 1) % 3, a2 = (ax + 2) % 3;
-    parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
-      double vsum = 0;
-      auto weight = [&](Index v) {
-        const double* pv = X + 3 * v;
-        const double w = detail::ring_weight<ax>(X, ip, pr, v, cone ? origin[a1] : pv[a1], cone ? origin[a2] : pv[a2]);
-        if (weights) weights[v] = w;
-        vsum += (pv[ax] - o) * w;
-        return w;
-      };
-      detail::scatter(T, E, runs, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
-      vol[c] = vsum;
-    });
-  };
-  if (axis == 0) pass(std::integral_constant<int, 0>{});
-  else if (axis == 1) pass(std::integral_constant<int, 1>{});
-  else pass(std::integral_constant<int, 2>{});
-  AxisCoefficients out;
-  out.alpha = detail::sum_chunks(buf, chunks, N, threads);
-  for (double v : vol) out.volume += v;
-  return out;
+    auto weight_of = [&](Index v) {
+      const double* pv = X + 3 * v;
+      return detail::ring_weight<ax>(X, ip, pr, v, cone ? origin[a1] : pv[a1], cone ? origin[a2] : pv[a2]);
+    };
+    return detail::weighted_scatter<ax>(T, E, runs, X, origin[ax], threads, weights, weight_of);
+  });
 }
 
 /// coefficients_rings for a closed mesh (b = p_v) from the vertices' fans
@@ -230,37 +233,15 @@ inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding
 inline AxisCoefficients coefficients_fans(const BasisTables& T, const Embedding& E, const VertexFans& fans,
                                           const double* X, int axis, const Vector3d& origin, int threads = 0,
                                           double* weights = nullptr, const CellRuns* runs = nullptr) {
-  const Index nv = E.size();
-  const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
-  VPFFD_CHECK(Index(fans.indptr.size()) == nv + 1, "coefficients_fans: fans of ", Index(fans.indptr.size()) - 1,
-              " vertices, the embedding has ", nv);
-  const int chunks = detail::scatter_chunks(nv, N);
-  std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
-  std::vector<double> vol(chunks, 0.0);
+  VPFFD_CHECK(Index(fans.indptr.size()) == E.size() + 1, "coefficients_fans: fans of ",
+              Index(fans.indptr.size()) - 1, " vertices, the embedding has ", E.size());
   const std::int32_t* ip = fans.indptr.data();
   const std::int32_t* fan = fans.fan.data();
-  const double o = origin[axis];
-  auto pass = [&](auto axis_c) {
+  return detail::with_axis(axis, [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value;
-    parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
-      double vsum = 0;
-      auto weight = [&, weights](Index v) {
-        const double w = detail::fan_weight<ax>(X, ip, fan, v);
-        if (weights) weights[v] = w;
-        vsum += (X[3 * v + ax] - o) * w;
-        return w;
-      };
-      detail::scatter(T, E, runs, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
-      vol[c] = vsum;
-    });
-  };
-  if (axis == 0) pass(std::integral_constant<int, 0>{});
-  else if (axis == 1) pass(std::integral_constant<int, 1>{});
-  else pass(std::integral_constant<int, 2>{});
-  AxisCoefficients out;
-  out.alpha = detail::sum_chunks(buf, chunks, N, threads);
-  for (double v : vol) out.volume += v;
-  return out;
+    auto weight_of = [&](Index v) { return detail::fan_weight<ax>(X, ip, fan, v); };
+    return detail::weighted_scatter<ax>(T, E, runs, X, origin[ax], threads, weights, weight_of);
+  });
 }
 
 /// The paper's formulation: alpha = A n with A the N x F face matrix
