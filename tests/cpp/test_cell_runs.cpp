@@ -19,13 +19,20 @@ struct Points {
   CellRuns runs;
 };
 
-/// n random points in (and, with `outside`, a little beyond) the box of L, in cell order.
-Points random_points(const Lattice& L, Index n, bool outside, unsigned seed) {
+/// n random points in (and, with `outside`, a little beyond) the box of L, in cell
+/// order. With `skew` their density falls along x (cells near box_max get few
+/// points), so the runs are both shorter and longer than kShortRun.
+Points random_points(const Lattice& L, Index n, bool outside, unsigned seed, bool skew = false) {
   std::mt19937 gen(seed);
-  std::uniform_real_distribution<double> u(outside ? -0.1 : 0.0, outside ? 1.1 : 1.0);
+  const double lo = outside ? -0.1 : 0.0, hi = outside ? 1.1 : 1.0;
+  std::uniform_real_distribution<double> u(lo, hi);
   RowMatrixX3d X(n, 3);
   for (Index i = 0; i < n; ++i)
-    for (int a = 0; a < 3; ++a) X(i, a) = L.box_min[a] + u(gen) * (L.box_max[a] - L.box_min[a]);
+    for (int a = 0; a < 3; ++a) {
+      double t = u(gen);
+      if (skew && a == 0) t = lo + (hi - lo) * std::pow((t - lo) / (hi - lo), 3);
+      X(i, a) = L.box_min[a] + t * (L.box_max[a] - L.box_min[a]);
+    }
   const BasisTables T = basis_tables(L);
   const Embedding E = embed(L, X, OutsidePolicy::Extrapolate, 1);
   Points p;
@@ -70,7 +77,8 @@ TEST(CellRuns, RunsCoverThePointsCellByCell) {
 
 // For every uniform order 2..6: the run kernels give the per-point kernels' values
 // (to the bound above), and split anywhere give the same bits (each point's value
-// does not depend on its lane or run piece).
+// does not depend on its lane or run piece). The points have runs of both kinds:
+// short ones (per-point arithmetic) and long ones (power form).
 TEST(CellRuns, KernelsEqualPerPointKernels) {
   for (int degree = 1; degree <= 5; ++degree) {
     const int K = degree + 1;
@@ -78,8 +86,12 @@ TEST(CellRuns, KernelsEqualPerPointKernels) {
     const Lattice L = make_lattice(Vector3d(-1, -0.5, 0), Vector3d(1, 1.5, 0.8), {degree + 4, degree + 3, degree + 5},
                                    {degree, degree, degree});
     const BasisTables T = basis_tables(L);
-    const Points p = random_points(L, 3001, true, 7 + degree);
+    const Points p = random_points(L, 3001, true, 7 + degree, true);
     const Embedding& E = p.E;
+    Index n_short = 0, n_long = 0;
+    for (Index r = 0; r < p.runs.size(); ++r) (p.runs.length(r) < kShortRun ? n_short : n_long) += 1;
+    ASSERT_GE(n_short, 3);
+    ASSERT_GE(n_long, 3);
     const Index n = E.size(), N = L.n_control_points();
     std::mt19937 gen(degree);
     std::uniform_real_distribution<double> u(-1, 1);

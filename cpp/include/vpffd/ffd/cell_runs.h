@@ -22,13 +22,19 @@
 /// computes it (the tail of a piece runs the same code on padded lanes), so the
 /// results are the same for any thread count.
 ///
+/// Short runs: the change of basis costs as much as evaluating a few dozen points
+/// point by point, so a run shorter than kShortRun (a coarse mesh in a fine
+/// lattice: a few points per cell) takes the per-point kernels' arithmetic
+/// instead. The choice depends on the whole run's length only, never on where a
+/// chunk boundary splits it, so results stay the same for any thread count.
+///
 /// Only for uniform orders K = 2..6 (dispatch_order); K = 0 keeps the per-point kernels.
 
 #include <algorithm>
 #include <array>
 #include <vector>
 
-#include "vpffd/ffd/vertex_basis.h"
+#include "vpffd/ffd/kernels.h"
 
 namespace vpffd {
 
@@ -37,7 +43,11 @@ struct CellRuns {
   std::vector<Index> start;                       ///< R + 1: run r is [start[r], start[r+1])
   std::array<std::vector<std::int32_t>, 3> span;  ///< R per axis: the run's knot spans
   Index size() const { return static_cast<Index>(span[0].size()); }
+  Index length(Index r) const { return start[r + 1] - start[r]; }
 };
+
+/// Runs shorter than this take the per-point arithmetic (see the file comment).
+inline constexpr Index kShortRun = 32;
 
 /// The runs of E's points (in the order E holds them).
 inline CellRuns cell_runs(const Embedding& E) {
@@ -184,28 +194,47 @@ void for_each_run(const CellRuns& R, Index b, Index e, F&& f) {
   }
 }
 
+/// The loop the evaluating kernels share: for the points of [b, e), run by run,
+/// the NC fields with control values D[0..NC) at four points at a time; calls
+/// f(v, n, g) with g[c] the field c at points [v, v + n), n <= 4 (lanes past n
+/// hold padding).
+template <int K, int NC, class F>
+void eval_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const std::array<const double*, NC>& D,
+               Index b, Index e, F&& f) {
+  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
+  alignas(32) double C[NC][K * K * K];
+  for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
+    std::array<Lanes, NC> g;
+    if (R.length(r) < kShortRun) {
+      alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
+      for (Index v = lo; v < hi; ++v) {
+        const Index base = point_basis<K>(T, E, v, bu, bv, bw);
+        for (int c = 0; c < NC; ++c) g[c][0] = basis_dot<K>(T, D[c], base, bu, bv, bw, si, sj);
+        f(v, 1, g);
+      }
+      return;
+    }
+    const RunBasis rb = run_basis<K>(T, R, r);
+    for (int c = 0; c < NC; ++c) to_power<K>(rb, D[c], si, sj, C[c]);
+    for (Index v = lo; v < hi; v += 4) {
+      Lanes U, V, W;
+      load_params(E, v, hi, U, V, W);
+      for (int c = 0; c < NC; ++c) g[c] = eval_power<K>(C[c], U, V, W);
+      f(v, std::min<Index>(4, hi - v), g);
+    }
+  });
+}
+
 /// out[v] = sum_ijk B_ijk(u_v) P_ijk for v in [b, e) (ffd_kernel, run by run).
 template <int K>
 void ffd_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* Px, const double* Py,
               const double* Pz, double* out, Index b, Index e) {
-  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
-  alignas(32) double C[3][K * K * K];
-  for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
-    const RunBasis rb = run_basis<K>(T, R, r);
-    to_power<K>(rb, Px, si, sj, C[0]);
-    to_power<K>(rb, Py, si, sj, C[1]);
-    to_power<K>(rb, Pz, si, sj, C[2]);
-    for (Index v = lo; v < hi; v += 4) {
-      Lanes U, V, W;
-      load_params(E, v, hi, U, V, W);
-      const Lanes x = eval_power<K>(C[0], U, V, W), y = eval_power<K>(C[1], U, V, W),
-                  z = eval_power<K>(C[2], U, V, W);
-      for (Index l = 0; l < 4 && v + l < hi; ++l) {
-        double* o = out + 3 * (v + l);
-        o[0] = x[l];
-        o[1] = y[l];
-        o[2] = z[l];
-      }
+  eval_runs<K, 3>(T, E, R, {Px, Py, Pz}, b, e, [&](Index v, Index n, const std::array<Lanes, 3>& g) {
+    for (Index l = 0; l < n; ++l) {
+      double* o = out + 3 * (v + l);
+      o[0] = g[0][l];
+      o[1] = g[1][l];
+      o[2] = g[2][l];
     }
   });
 }
@@ -214,16 +243,8 @@ void ffd_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const
 template <int K>
 void gather_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* D, double* out, int axis,
                  Index b, Index e) {
-  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
-  alignas(32) double C[K * K * K];
-  for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
-    to_power<K>(run_basis<K>(T, R, r), D, si, sj, C);
-    for (Index v = lo; v < hi; v += 4) {
-      Lanes U, V, W;
-      load_params(E, v, hi, U, V, W);
-      const Lanes g = eval_power<K>(C, U, V, W);
-      for (Index l = 0; l < 4 && v + l < hi; ++l) out[3 * (v + l) + axis] += g[l];
-    }
+  eval_runs<K, 1>(T, E, R, {D}, b, e, [&](Index v, Index n, const std::array<Lanes, 1>& g) {
+    for (Index l = 0; l < n; ++l) out[3 * (v + l) + axis] += g[0][l];
   });
 }
 
@@ -234,25 +255,17 @@ template <int K>
 double gather_final_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* D,
                          const double* X, int axis, const double* w, double o, const std::int32_t* order, double* out,
                          Index b, Index e) {
-  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
-  alignas(32) double C[K * K * K];
   double vsum = 0;
-  for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
-    to_power<K>(run_basis<K>(T, R, r), D, si, sj, C);
-    for (Index v = lo; v < hi; v += 4) {
-      Lanes U, V, W;
-      load_params(E, v, hi, U, V, W);
-      const Lanes g = eval_power<K>(C, U, V, W);
-      for (Index l = 0; l < 4 && v + l < hi; ++l) {
-        const Index u = v + l;
-        double p[3] = {X[3 * u], X[3 * u + 1], X[3 * u + 2]};
-        p[axis] += g[l];
-        vsum += w[u] * (p[axis] - o);
-        double* q = out + 3 * Index(order[u]);
-        q[0] = p[0];
-        q[1] = p[1];
-        q[2] = p[2];
-      }
+  eval_runs<K, 1>(T, E, R, {D}, b, e, [&](Index v, Index n, const std::array<Lanes, 1>& g) {
+    for (Index l = 0; l < n; ++l) {
+      const Index u = v + l;
+      double p[3] = {X[3 * u], X[3 * u + 1], X[3 * u + 2]};
+      p[axis] += g[0][l];
+      vsum += w[u] * (p[axis] - o);
+      double* q = out + 3 * Index(order[u]);
+      q[0] = p[0];
+      q[1] = p[1];
+      q[2] = p[2];
     }
   });
   return vsum;
@@ -283,6 +296,10 @@ void scatter_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, W
   using KVec = Eigen::Array<double, K, 1>;
   alignas(32) double M[K * K * K];
   for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
+    if (R.length(r) < kShortRun) {
+      scatter_kernel<K>(T, E, weight, acc, lo, hi);
+      return;
+    }
     KVec m[K * K];
     for (auto& x : m) x.setZero();
     const double *tu = E.tau[0].data(), *tv = E.tau[1].data(), *tw = E.tau[2].data();

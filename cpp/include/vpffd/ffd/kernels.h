@@ -115,12 +115,10 @@ void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, d
   flush();
 }
 
-/// sum_c B_c(u_v) D[c]: an offset field's value at point v.
+/// sum_c B_c D[c] from one point's basis values (bu, bv, bw) and first control point.
 template <int K>
-VPFFD_ALWAYS_INLINE double gather_value(const BasisTables& T, const Embedding& E, const double* D, Index v, Index si,
-                                        Index sj) {
-  alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
-  const Index base = point_basis<K>(T, E, v, bu, bv, bw);
+VPFFD_ALWAYS_INLINE double basis_dot(const BasisTables& T, const double* D, Index base, const double* bu,
+                                     const double* bv, const double* bw, Index si, Index sj) {
   double s = 0;
   if constexpr (K > 0) {
     // Factored as sum_i bu_i (sum_j bv_j D_ij.): K^2 + K multiply-adds, no products bu_i bv_j.
@@ -140,6 +138,15 @@ VPFFD_ALWAYS_INLINE double gather_value(const BasisTables& T, const Embedding& E
       }
   }
   return s;
+}
+
+/// sum_c B_c(u_v) D[c]: an offset field's value at point v.
+template <int K>
+VPFFD_ALWAYS_INLINE double gather_value(const BasisTables& T, const Embedding& E, const double* D, Index v, Index si,
+                                        Index sj) {
+  alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
+  const Index base = point_basis<K>(T, E, v, bu, bv, bw);
+  return basis_dot<K>(T, D, base, bu, bv, bw, si, sj);
 }
 
 /// out[3 v + axis] += sum_c B_c(u_v) D[c] for v in [b, e): one coordinate of an
