@@ -167,17 +167,37 @@ TEST(Multires, CellRunKernelEqualsPerPointKernel) {
       std::printf("  degree %d twist about %d: values differ by %.1e of max|P| (bound %.1e), Jacobians by %.1e\n",
                   degree, axis, (X - X0).cwiseAbs().maxCoeff() / pmax, eV / pmax,
                   (J - J0).cwiseAbs().maxCoeff() / (pmax * std::max({smax[0], smax[1], smax[2]})));
-      // The frame is the reconstruction of exactly these values and Jacobians, and
-      // neither depends on the thread count.
+      // The frame is the reconstruction of these values and Jacobians (the same
+      // formulas, compiled in another place: the compiler may fuse other multiply-adds,
+      // so each operation may round differently, by u of its terms; e = 16 u |terms|
+      // per step covers both sides), and neither depends on the thread count.
       const MultiresFrame f = ffd.deform(P, 1);
+      const double w = 16 * u;
       for (Index i = 0; i < mr->n_vertices(); ++i) {
         Matrix3d Ji;
         for (int r = 0; r < 3; ++r)
           for (int c = 0; c < 3; ++c) Ji(r, c) = J(i, 3 * r + c);
+        const Vector3d su = mr->tangent_u(i), sv = mr->tangent_v(i), su1 = Ji * su, sv1 = Ji * sv;
         Vector3d p, n;
-        reconstruct_vertex(X.row(i).transpose(), Ji * mr->tangent_u(i), Ji * mr->tangent_v(i), mr->d[i],
-                           mr->coefficients(i), p, n);
-        ASSERT_TRUE(p == f.vertices.row(i).transpose() && n == f.normals.row(i).transpose()) << "vertex " << i;
+        reconstruct_vertex(X.row(i).transpose(), su1, sv1, mr->d[i], mr->coefficients(i), p, n);
+        const double e_su = w * (Ji.cwiseAbs() * su.cwiseAbs()).norm(), e_sv = w * (Ji.cwiseAbs() * sv.cwiseAbs()).norm();
+        const Vector3d cr = su1.cross(sv1), ns = cr.normalized();
+        const double e_c = e_su * sv1.norm() + su1.norm() * e_sv + e_su * e_sv + w * su1.norm() * sv1.norm();
+        const double e_N = 2 * e_c / cr.norm() + w, ad = std::abs(mr->d[i]);
+        const double e_p = ad * e_N + w * (X.row(i).norm() + ad);
+        const NormalCoefficients k = mr->coefficients(i);
+        Vector3d fw[2];
+        double ef[2];
+        for (int j = 0; j < 2; ++j) {
+          const double a = std::abs(k[3 * j]), b = std::abs(k[3 * j + 1]), g = std::abs(k[3 * j + 2]);
+          fw[j] = k[3 * j] * su1 + k[3 * j + 1] * sv1 + k[3 * j + 2] * ns;
+          ef[j] = a * e_su + b * e_sv + g * e_N + w * (a * su1.norm() + b * sv1.norm() + g);
+        }
+        const double e_n = ef[0] * fw[1].norm() + fw[0].norm() * ef[1] + ef[0] * ef[1] + w * fw[0].norm() * fw[1].norm();
+        // A unit vector's change: at most 2 |dn| / |n| plus the normalisation's rounding.
+        const double e_unit = 2 * e_n / fw[0].cross(fw[1]).norm() + w;
+        ASSERT_LE((p - f.vertices.row(i).transpose()).norm(), e_p) << "vertex " << i;
+        ASSERT_LE((n - f.normals.row(i).transpose()).norm(), e_unit) << "vertex " << i;
       }
       for (int threads : {2, 3}) {
         ffd.foot_values_jacobians(P, Xt, Jt, threads);
