@@ -9,12 +9,19 @@ its figures are not a GPU's), median frame times of
   * plain FFD of the fine mesh (positions only: Deformer.ffd),
   * plain FFD with exact deformed normals (positions + cof(J) n per vertex),
   * the multiresolution reconstruction (FFD and analytic Jacobian at the foot
-    point, p' = S' + d N_S', approximate normal of eqs. 6-7),
+    point, p' = S' + d N_S', approximate normal of eqs. 6-7; on the CPU the cell-run
+    kernel, MultiresFFD.deform, with the per-point kernel's time, deform_per_point,
+    printed beside as "MR per-point ms"),
 in million triangles per second, and the bytes per vertex each reads. On Vulkan the
 three are one submission each (VulkanDeformer's plain frame, with its normals
 pass, and VulkanMultires), timed end to end on the host (upload, dispatch, read-back
 and reordering), with the device's own timestamps of the multiresolution frame
-printed beside. Then the
+printed beside; the volume-corrected multiresolution frame (MultiresDeformer.deform,
+volume "base" and "fine") is one submission (the Deformer's frame, then the
+reconstruction from its device buffers), and beside it the same frame as two
+submissions with the corrected control points going through the host (the Deformer's
+frame, then VulkanMultires of its control points; "fine" adds the base's FFD), the
+route before the reconstruction became a tail of the Deformer's submission. Then the
 approximate-normal error table (mean / 95th percentile / max angle to the normals
 of the deformed fine mesh) for a moderate edit and two extreme ones, at several
 smoothing strengths. Bumpy icospheres are generated in code; the dragon is read
@@ -84,10 +91,22 @@ def speed_vulkan(name, mesh, mr, lat, P, repeats, selector):
     t_mr = median_ms(mr_frame, repeats)
     t_vol = median_ms(lambda: dv.deform(P), repeats)
     t_mrvol = median_ms(lambda: mv.deform(P, volume="base"), repeats)
+    t_mrfine = median_ms(lambda: mv.deform(P, volume="fine"), repeats)
+    fine = mv._fine_deformer()
+
+    def two_submissions(volume):
+        # The correction, its control points through the host, then the reconstruction
+        # (and for "fine" the base's FFD) as separate submissions.
+        r = (mv._base if volume == "base" else fine).deform(P)
+        Pc = np.ascontiguousarray(r.control_points.reshape(-1, 3))
+        if volume == "fine":
+            mv._base._vk.deform(Pc, plain)
+        mv._vk.deform(Pc)
+    t_two = {v: median_ms(lambda v=v: two_submissions(v), repeats) for v in ("base", "fine")}
     mt = mesh.n_faces / 1e6
     row = (name, mesh.n_vertices, mesh.n_faces, "vulkan", t_ffd, t_ffdn, t_mr, t_vol, t_mrvol,
            mt / (t_ffd / 1e3), mt / (t_ffdn / 1e3), mt / (t_mr / 1e3))
-    return row, float(np.median(gpu))
+    return row, float(np.median(gpu)), {"base": (t_mrvol, t_two["base"]), "fine": (t_mrfine, t_two["fine"])}
 
 
 def speed(name, mesh, smoothing, shape, repeats):
@@ -105,11 +124,12 @@ def speed(name, mesh, smoothing, shape, repeats):
         t_ffdn = median_ms(lambda: (d._d.ffd(P, threads),
                                     _core.deformed_normals_exact(d._d.jacobians(P, threads), N0, threads)), repeats)
         t_mr = median_ms(lambda: md._ffd.deform(P, threads), repeats)
+        t_mr_pp = median_ms(lambda: md._ffd.deform_per_point(P, threads), repeats)
         t_vol = median_ms(lambda: d.deform(P), repeats)
         t_mrvol = median_ms(lambda: md.deform(P, volume="base"), repeats)
         mt = mesh.n_faces / 1e6
         rows.append((name, mesh.n_vertices, mesh.n_faces, threads, t_ffd, t_ffdn, t_mr, t_vol, t_mrvol,
-                     mt / (t_ffd / 1e3), mt / (t_ffdn / 1e3), mt / (t_mr / 1e3)))
+                     mt / (t_ffd / 1e3), mt / (t_ffdn / 1e3), mt / (t_mr / 1e3), t_mr_pp))
     return mr, t_dec, rows
 
 
@@ -150,8 +170,8 @@ def main():
           f"{_core.MultiresFFD.frame_bytes_per_vertex} (float64; half in float32); decomposition holds "
           f"{vpffd.Multires.bytes_per_vertex}")
     print("\n| mesh | V | F | threads | FFD ms | FFD+normals ms | MR ms | VP-FFD ms | MR+VP(base) ms | "
-          "FFD Mtri/s | FFD+normals Mtri/s | MR Mtri/s | MR / FFD+normals |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "FFD Mtri/s | FFD+normals Mtri/s | MR Mtri/s | MR / FFD+normals | MR / FFD | MR per-point ms |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     vk = None if a.no_vulkan else vulkan_selector()
     if vk is not None:
         print(f"vulkan device: {vk[1]}" + (" (a CPU driver: not a GPU figure)" if "llvmpipe" in vk[1] else "")
@@ -164,13 +184,17 @@ def main():
         if vk is not None:
             lat = vpffd.Lattice.around(mesh, shape=(a.lattice,) * 3)
             P = np.ascontiguousarray(vpffd.twist(lat.control_points, 90).reshape(-1, 3))
-            row, gpu_ms = speed_vulkan(name, mesh, mr, lat, P, a.repeats, vk[0])
+            row, gpu_ms, subm = speed_vulkan(name, mesh, mr, lat, P, a.repeats, vk[0])
             rows.append(row)
         for r in rows:
             print(f"| {r[0]} | {r[1]:,} | {r[2]:,} | {r[3]} | {r[4]:.1f} | {r[5]:.1f} | {r[6]:.1f} | {r[7]:.1f} | "
-                  f"{r[8]:.1f} | {r[9]:.1f} | {r[10]:.1f} | {r[11]:.1f} | {r[6] / r[5]:.2f} |", flush=True)
+                  f"{r[8]:.1f} | {r[9]:.1f} | {r[10]:.1f} | {r[11]:.1f} | {r[6] / r[5]:.2f} | {r[6] / r[4]:.2f} | "
+                  + (f"{r[12]:.1f} |" if len(r) > 12 else "- |"), flush=True)
         if gpu_ms is not None:
             print(f"  ({name}: multiresolution frame on the device, its timestamps: {gpu_ms:.1f} ms)", flush=True)
+            print(f"  ({name}: vulkan MR+VP frame, one submission / two through the host: " + "; ".join(
+                f"volume {v} {one:.1f} / {two:.1f} ms ({one / two:.2f})" for v, (one, two) in subm.items()) + ")",
+                flush=True)
         print(f"  ({name}: decomposition {t_dec:.2f} s; {mr})", flush=True)
         if name == "dragon":
             acc_meshes.append((name, mesh))

@@ -286,6 +286,20 @@ class MultiresFFD:
         """
         (D at the foot points (V, 3), Jacobians (V, 9)).
         """
+    def foot_values_jacobians_per_point(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
+        """
+        foot_values_jacobians with the per-point kernel (the reference).
+        """
+    def deform_per_point(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
+        """
+        deform() with the per-point kernel (its reference): (vertices (V, 3), unit normals (V, 3)).
+        """
+    @property
+    def uses_cell_runs(self) -> bool:
+        ...
+    @property
+    def held_bytes_per_vertex(self) -> int:
+        ...
 class RbfWeights:
     """
     A solved RBF map (normalised coordinates).
@@ -372,6 +386,10 @@ class VulkanMultires:
     def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> tuple[typing.Any, typing.Any]:
         """
         (vertices (V, 3), approximate unit normals (V, 3)), input order.
+        """
+    def deform_after(self, correction: VulkanDeformer, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions, base: VulkanDeformer | None = None) -> tuple:
+        """
+        One submission: correction's frame (as VulkanDeformer.deform), then the reconstruction from its corrected control points (and, with base, the base Deformer's FFD of them): (vertices, normals, base vertices, the correction's result dict without 'vertices').
         """
     def last_timings(self) -> dict:
         ...

@@ -12,9 +12,10 @@ per vertex without neighbours (eq. 1 and the approximate normals of eqs. 6-7).
 True
 
 Frames run on the CPU (OpenMP or serial) or, for ``MultiresDeformer``, on a Vulkan
-device (``backend="vulkan"``: one compute dispatch per frame rebuilds positions and
-approximate normals from the foot points' embedding, S_u, S_v, d and the six
-coefficients, uploaded once; see ``MultiresDeformer``). ``RBFDeformer`` runs on the
+device (``backend="vulkan"``: one compute dispatch, in the same submission as the
+volume correction, rebuilds positions and approximate normals from the foot points'
+embedding, S_u, S_v, d and the six coefficients, uploaded once; see
+``MultiresDeformer``). ``RBFDeformer`` runs on the
 CPU.
 """
 from __future__ import annotations
@@ -26,6 +27,7 @@ import numpy as np
 import warnings
 
 from . import _arrays, _core
+from . import local_weights as _local_weights
 from .backends import _requested_precision, _resolve_backend
 from .deformer import Deformer
 from .lattice import Lattice
@@ -195,6 +197,24 @@ def _check_normals(normals):
         raise InvalidInputError(f"normals: expected 'approximate' or 'exact', got {normals!r}")
 
 
+def _correction_options(deformer, P, axes, weights, fixed, rounds, threads):
+    """The options ``deformer.deform(P, axes=, weights=, fixed=, rounds=)`` runs with,
+    checked as it checks them (for a frame that the device continues)."""
+    if not isinstance(axes, str):
+        raise TypeError(f"axes: expected a string such as 'xyz', got {type(axes).__name__}")
+    if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)):
+        raise TypeError(f"rounds: expected an integer, got {type(rounds).__name__}")
+    n, shape = deformer.n_control_points, deformer.lattice.shape
+    if isinstance(weights, str):
+        if weights != "auto":
+            raise InvalidInputError(f"weights: expected an array or 'auto', got {weights!r}")
+        weights = _local_weights.auto_weights(deformer, P)
+    w = None if weights is None else _arrays.per_control_point(weights, n, shape, "weights", float)
+    fx = None if fixed is None else _arrays.per_control_point(fixed, n, shape, "fixed", bool)
+    return _core.CorrectionOptions(preserve_volume=True, axes=axes, weights=w, fixed=fx, threads=threads,
+                                   rounds=int(rounds))
+
+
 def _check_multires(mr, who):
     if not isinstance(mr, Multires):
         raise TypeError(f"{who}: expected a vpffd.Multires, got {type(mr).__name__}")
@@ -203,9 +223,15 @@ def _check_multires(mr, who):
 class MultiresDeformer:
     """FFD of a decomposition's base with the fine mesh rebuilt per vertex.
 
-    Per frame: S'(t_i) = D(S(t_i)), S'_u = J_D S_u, S'_v = J_D S_v with the B-spline
-    basis values and first derivatives evaluated at each foot point (analytic
-    Jacobian), then p' = S' + d N_S' and the approximate normal of eqs. 6-7.
+    Per frame: S'(t_i) = D(S(t_i)), S'_u = J_D S_u, S'_v = J_D S_v (analytic Jacobian
+    at each foot point), then p' = S' + d N_S' and the approximate normal of eqs. 6-7.
+    On the CPU, for lattices of one degree on all axes, the foot points are sorted by
+    lattice cell once here and a frame runs one cell at a time: the cell's polynomial
+    is formed once per run of foot points, D and its gradient follow by nested Horner
+    four points at a time, with no per-point basis (same frame as the per-point
+    evaluation, used for mixed degrees, to a few units in the last place; the same bits
+    for any thread count). That keeps the foot points' embedding and the frame data
+    once more in cell order (``_ffd.held_bytes_per_vertex``: 204 bytes per vertex).
 
     Parameters
     ----------
@@ -223,9 +249,12 @@ class MultiresDeformer:
         the same control points the derived worst case (tests/python/gpu_bounds.py,
         multires_bounds) is a few 1e-6 of the box diagonal for positions and below
         0.01 degree for the normals of a moderate edit; lavapipe gives 5e-8 of the
-        diagonal and 2e-5 degree. The correction and the reconstruction are two
-        submissions; the deformed base (``base_vertices``) is the base Deformer's
-        device FFD. Periodic lattices raise BackendUnavailableError, as does a build
+        diagonal and 2e-5 degree. A frame is one queue submission: the Deformer's
+        frame, then the corrected control points summed on the device from its
+        buffers (no host round trip) and the reconstruction dispatch. The deformed
+        base (``base_vertices``) is the base Deformer's device FFD (with
+        ``volume="fine"`` run in the same submission on the corrected control
+        points). Periodic lattices raise BackendUnavailableError, as does a build
         or machine without Vulkan.
         "auto" follows ``Deformer``'s rule on the fine mesh's size: a hardware GPU
         for meshes of ``vpffd.backends.AUTO_GPU_MIN_VERTICES`` vertices or more, or the
@@ -296,9 +325,11 @@ class MultiresDeformer:
         return self._vk.precision if self._vk is not None else None
 
     def last_timings(self) -> dict:
-        """The reconstruction dispatch of the last frame ("vulkan" only): ``gpu_total_ms``
-        (its upload, dispatch and copies, when the queue has timestamps) and
-        ``host_total_ms``. The correction's are ``_base`` / the fine Deformer's."""
+        """The last frame ("vulkan" only): ``gpu_total_ms``, the device time after the
+        Deformer's frame (the sum of the corrected control points, [the base's FFD,]
+        the reconstruction dispatch and the copies, when the queue has timestamps), and
+        ``host_total_ms``, the whole frame (correction included). The correction's own
+        device timings are its Deformer's (``_base`` or the fine one)."""
         if self._vk is None:
             raise InvalidInputError("last_timings: only the 'vulkan' backend records frame timings")
         return self._vk.last_timings()
@@ -318,9 +349,7 @@ class MultiresDeformer:
         return self._fine
 
     def _base_ffd(self, Pc) -> np.ndarray:
-        """The deformed base mesh for control points Pc (N, 3): on the device for "vulkan"."""
-        if self._vk is not None:
-            return self._base.deform(Pc, preserve_volume=False).vertices
+        """The deformed base mesh for control points Pc (N, 3), on the CPU."""
         return self._base.ffd(Pc)
 
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", volume: str = "base",
@@ -355,11 +384,13 @@ class MultiresDeformer:
             raise InvalidInputError(f"volume: expected 'base' or 'fine', got {volume!r}")
         _check_normals(normals)
         P = self.lattice._control(control_points)
+        if preserve_volume and not self.multires.mesh.is_closed:
+            raise InvalidInputError(
+                "MultiresDeformer.deform: the mesh does not bound a volume, so it cannot be preserved "
+                f"(pass preserve_volume=False):\n{self.multires.mesh.check()}")
+        if self._vk is not None:
+            return self._deform_vulkan(P, preserve_volume, axes, volume, normals, weights, fixed, rounds)
         if preserve_volume:
-            if not self.multires.mesh.is_closed:
-                raise InvalidInputError(
-                    "MultiresDeformer.deform: the mesh does not bound a volume, so it cannot be preserved "
-                    f"(pass preserve_volume=False):\n{self.multires.mesh.check()}")
             d = self._base if volume == "base" else self._fine_deformer()
             r = d.deform(P, preserve_volume=True, axes=axes, weights=weights, fixed=fixed, rounds=rounds)
             Pc = np.ascontiguousarray(r.control_points.reshape(-1, 3))
@@ -367,10 +398,24 @@ class MultiresDeformer:
         else:
             Pc = P
             B = self._base_ffd(Pc)
-        if self._vk is not None:
-            X, N = self._vk.deform(Pc)
+        X, N = self._ffd.deform(Pc, self._threads)
+        return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend)
+
+    def _deform_vulkan(self, P, preserve_volume, axes, volume, normals, weights, fixed, rounds):
+        """One submission: the base's (or, volume="fine", the fine mesh's) Vulkan Deformer
+        frame, the reconstruction from its corrected control points and, for "fine",
+        the base's FFD of them."""
+        base = None
+        if preserve_volume:
+            d = self._base if volume == "base" else self._fine_deformer()
+            opts = _correction_options(d, P, axes, weights, fixed, rounds, self._threads)
+            if volume == "fine":
+                base = self._base._vk
         else:
-            X, N = self._ffd.deform(Pc, self._threads)
+            d = self._base
+            opts = _core.CorrectionOptions(preserve_volume=False, threads=self._threads)
+        X, N, B, r = self._vk.deform_after(d._vk, P, opts, base)
+        Pc = r["control_points"]
         return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend)
 
 

@@ -2,6 +2,7 @@
 // motions, the analytic foot-point Jacobian, the RBF map, and refused input.
 
 #include <cmath>
+#include <cstdio>
 #include <memory>
 
 #include "helpers.h"
@@ -101,6 +102,126 @@ TEST(Multires, ThreadCountDoesNotChangeResult) {
   const MultiresFrame a = ffd.deform(P, 1), b = ffd.deform(P, 2);
   EXPECT_EQ((a.vertices - b.vertices).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ((a.normals - b.normals).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// The cell-run kernel (multires/foot_runs.h) against the per-point one, degrees 1-5,
+// a twist about each axis. Both evaluate f = sum_ijk B_i B_j B_k P_ijk with B_i(tau) =
+// sum_q c_qi tau^q (the span's power form): the per-point kernel by Horner on each B_i
+// (error gamma_2K relative to beta_i = sum_q |c_qi| |tau|^q) and then tensor sums
+// (gamma_{3K+3}); the run kernel by three staged sums of K terms for the cell's
+// power coefficients (gamma_{3K+3}) and nested Horner over them (gamma_{6K}). With
+// A_a = max over spans of sum_i beta_i (tau_max), both are within gamma_{9K+3} A_u A_v
+// A_w max|P| of f, so they differ by at most twice that. A column a of J replaces
+// beta by sum_q q |c_qi| |tau|^(q-1) on axis a (A'_a) and is scaled by d tau / dx
+// (one more rounding; the derivative's Horner recurrence doubles the run kernel's
+// count): 2 gamma_{12K} A'_a A_b A_c max|P| max(d tau / dx). These are worst cases
+// (for cubics A = 16/3, so about 1.3e-12 of max|P|); the largest differences seen
+// are printed.
+TEST(Multires, CellRunKernelEqualsPerPointKernel) {
+  const TriMesh m = bumpy(6);  // 40962 vertices: above kParallelMin, so threads split the runs
+  auto mr = std::make_shared<Multires>(decompose(m.V, m.F, 10.0));
+  const double u = std::ldexp(1.0, -53);
+  auto gamma = [&](int n) { return n * u / (1 - n * u); };
+  for (int degree = 1; degree <= 5; ++degree) {
+    const Lattice L = lattice_around(m.V, {6, 7, 8}, degree);
+    const MultiresFFD ffd(mr, L);
+    ASSERT_TRUE(ffd.uses_cell_runs());
+    const BasisTables& T = ffd.tables();
+    const Embedding& E = ffd.embedding();
+    const int K = degree + 1;
+    double A[3], A1[3], smax[3];
+    const Vector3d du_dx = parameter_scale(L);
+    for (int a = 0; a < 3; ++a) {
+      double tmax = 1;
+      for (double t : E.tau[a]) tmax = std::max(tmax, std::abs(t));
+      A[a] = A1[a] = smax[a] = 0;
+      const SpanPolynomials& sp = T.poly[a];
+      for (int s = sp.first_span; s < sp.first_span + sp.n_spans; ++s) {
+        const double* c = sp.span_coef(s);
+        double sum = 0, sum1 = 0;
+        for (int q = 0; q < K; ++q)
+          for (int i = 0; i < K; ++i) {
+            sum += std::abs(c[q * K + i]) * std::pow(tmax, q);
+            if (q > 0) sum1 += q * std::abs(c[q * K + i]) * std::pow(tmax, q - 1);
+          }
+        A[a] = std::max(A[a], sum);
+        A1[a] = std::max(A1[a], sum1);
+        smax[a] = std::max(smax[a], sp.inv_width[s - sp.first_span] * du_dx[a]);
+      }
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      const RowMatrixX3d P = twist(rest_control_points(L), 1.0, axis, 0.5 * (L.box_min + L.box_max));
+      const double pmax = P.cwiseAbs().maxCoeff();
+      RowMatrixX3d X0, X, Xt;
+      RowMatrixXd J0, J, Jt;
+      ffd.foot_values_jacobians_per_point(P, X0, J0, 1);
+      ffd.foot_values_jacobians(P, X, J, 1);
+      const double eV = 2 * gamma(9 * K + 3) * A[0] * A[1] * A[2] * pmax;
+      EXPECT_LE((X - X0).cwiseAbs().maxCoeff(), eV) << "degree " << degree << " axis " << axis;
+      for (int c = 0; c < 3; ++c) {
+        const double eJ = 2 * gamma(12 * K) * A1[c] * A[(c + 1) % 3] * A[(c + 2) % 3] * pmax * smax[c];
+        for (int r = 0; r < 3; ++r)
+          EXPECT_LE((J.col(3 * r + c) - J0.col(3 * r + c)).cwiseAbs().maxCoeff(), eJ)
+              << "degree " << degree << " axis " << axis << " J(" << r << ", " << c << ")";
+      }
+      std::printf("  degree %d twist about %d: values differ by %.1e of max|P| (bound %.1e), Jacobians by %.1e\n",
+                  degree, axis, (X - X0).cwiseAbs().maxCoeff() / pmax, eV / pmax,
+                  (J - J0).cwiseAbs().maxCoeff() / (pmax * std::max({smax[0], smax[1], smax[2]})));
+      // The frame is the reconstruction of these values and Jacobians (the same
+      // formulas, compiled in another place: the compiler may fuse other multiply-adds,
+      // so each operation may round differently, by u of its terms; e = 16 u |terms|
+      // per step covers both sides), and neither depends on the thread count.
+      const MultiresFrame f = ffd.deform(P, 1);
+      const double w = 16 * u;
+      for (Index i = 0; i < mr->n_vertices(); ++i) {
+        Matrix3d Ji;
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) Ji(r, c) = J(i, 3 * r + c);
+        const Vector3d su = mr->tangent_u(i), sv = mr->tangent_v(i), su1 = Ji * su, sv1 = Ji * sv;
+        Vector3d p, n;
+        reconstruct_vertex(X.row(i).transpose(), su1, sv1, mr->d[i], mr->coefficients(i), p, n);
+        const double e_su = w * (Ji.cwiseAbs() * su.cwiseAbs()).norm(), e_sv = w * (Ji.cwiseAbs() * sv.cwiseAbs()).norm();
+        const Vector3d cr = su1.cross(sv1), ns = cr.normalized();
+        const double e_c = e_su * sv1.norm() + su1.norm() * e_sv + e_su * e_sv + w * su1.norm() * sv1.norm();
+        const double e_N = 2 * e_c / cr.norm() + w, ad = std::abs(mr->d[i]);
+        const double e_p = ad * e_N + w * (X.row(i).norm() + ad);
+        const NormalCoefficients k = mr->coefficients(i);
+        Vector3d fw[2];
+        double ef[2];
+        for (int j = 0; j < 2; ++j) {
+          const double a = std::abs(k[3 * j]), b = std::abs(k[3 * j + 1]), g = std::abs(k[3 * j + 2]);
+          fw[j] = k[3 * j] * su1 + k[3 * j + 1] * sv1 + k[3 * j + 2] * ns;
+          ef[j] = a * e_su + b * e_sv + g * e_N + w * (a * su1.norm() + b * sv1.norm() + g);
+        }
+        const double e_n = ef[0] * fw[1].norm() + fw[0].norm() * ef[1] + ef[0] * ef[1] + w * fw[0].norm() * fw[1].norm();
+        // A unit vector's change: at most 2 |dn| / |n| plus the normalisation's rounding.
+        const double e_unit = 2 * e_n / fw[0].cross(fw[1]).norm() + w;
+        ASSERT_LE((p - f.vertices.row(i).transpose()).norm(), e_p) << "vertex " << i;
+        ASSERT_LE((n - f.normals.row(i).transpose()).norm(), e_unit) << "vertex " << i;
+      }
+      for (int threads : {2, 3}) {
+        ffd.foot_values_jacobians(P, Xt, Jt, threads);
+        EXPECT_TRUE(Xt == X && Jt == J) << threads << " threads";
+        const MultiresFrame ft = ffd.deform(P, threads);
+        EXPECT_TRUE(ft.vertices == f.vertices && ft.normals == f.normals) << threads << " threads";
+      }
+    }
+  }
+}
+
+// Mixed orders have no cell-run kernel: deform() is the per-point frame.
+TEST(Multires, MixedOrdersUseThePerPointKernel) {
+  const TriMesh m = bumpy(3);
+  auto mr = std::make_shared<Multires>(decompose(m.V, m.F, 10.0));
+  Lattice L = lattice_around(m.V, {6, 6, 6}, 3);
+  const Lattice L2 = lattice_around(m.V, {6, 6, 6}, 2);
+  L.degree[1] = 2;
+  L.knots[1] = L2.knots[1];
+  const MultiresFFD ffd(mr, L);
+  EXPECT_FALSE(ffd.uses_cell_runs());
+  const RowMatrixX3d P = twist(rest_control_points(L), 1.0, 2, 0.5 * (L.box_min + L.box_max));
+  const MultiresFrame a = ffd.deform(P), b = ffd.deform_per_point(P);
+  EXPECT_TRUE(a.vertices == b.vertices && a.normals == b.normals);
 }
 
 TEST(Multires, RbfInterpolatesAndIsIdentityForUnmovedHandles) {

@@ -461,6 +461,77 @@ TEST_P(VulkanP, MultiresFrameOfAnAffineMap) {
   EXPECT_THROW(gpu.deform(bad), InvalidInputError);
 }
 
+// A frame after a VulkanDeformer's in one submission (VulkanMultires::deform with a
+// Deformer). Device arithmetic is deterministic (fixed reduction shapes), so what can
+// be compared bit for bit is: the correction (the Deformer's frame alone), the base
+// vertices of volume "base" (its vertices), and, without a correction, the whole
+// reconstruction (the control points on the device are the same floats as those the
+// standalone frame uploads: fl((P - o) / scale) on both sides).
+TEST_P(VulkanP, MultiresAfterDeformerFrame) {
+  Scene s = sphere(3, 3, {5, 5, 5});
+  for (Index i = 0; i < s.V.rows(); ++i) {
+    const Vector3d n = s.V.row(i).normalized();
+    s.V.row(i) = (n * (1.0 + 0.05 * std::sin(7 * n.x()) * std::sin(7 * n.y()) * std::sin(7 * n.z()))).transpose();
+  }
+  auto mr = std::make_shared<Multires>(decompose(s.V, s.F, 3.0));
+  vulkan::VulkanMultires gpu(mr, s.L, "", GetParam());
+  vulkan::VulkanDeformer base(mr->base, s.F, s.L, OutsidePolicy::Error, "", GetParam());
+  vulkan::VulkanDeformer fine(s.V, s.F, s.L, OutsidePolicy::Error, "", GetParam());
+  // A 20 % stretch along x (a volume the correction takes back: large offsets) and a wave.
+  RowMatrixX3d P = rest_control_points(s.L);
+  for (Index c = 0; c < P.rows(); ++c) P(c, 0) = 1.2 * P(c, 0) + 0.1 * std::sin(3 * P(c, 1)) * P(c, 2);
+  CorrectionOptions plain;
+  plain.preserve_volume = false;
+  const vulkan::MultiresDeviceFrame f0 = gpu.deform(base, P, plain);
+  const MultiresFrame g0 = gpu.deform(P);
+  EXPECT_TRUE(f0.frame.vertices == g0.vertices && f0.frame.normals == g0.normals);
+  EXPECT_TRUE(f0.base_vertices == base.deform(P, plain).vertices);
+
+  const CorrectionOptions opt;  // volume correction along x, y, z
+  const vulkan::MultiresDeviceFrame fb = gpu.deform(base, P, opt);
+  const DeformResult rb = base.deform(P, opt);
+  EXPECT_TRUE(fb.correction.control_points == rb.control_points);
+  EXPECT_TRUE(fb.base_vertices == rb.vertices);
+  EXPECT_GT((fb.correction.offsets).cwiseAbs().maxCoeff(), 0.0);
+  // The reconstruction follows the corrected control points: the standalone frame of
+  // P + offsets differs from it only by the rounding of the control points (the device
+  // rounds P, then the sum; the host the sum once): a few u = 6e-8 of the box, against
+  // the offsets' effect (here a few percent of the box), so 1e-3 of that effect is loose.
+  const double diag = (s.L.box_max - s.L.box_min).norm();
+  const MultiresFrame gb = gpu.deform(rb.control_points);
+  const double by_offsets = (fb.frame.vertices - g0.vertices).rowwise().norm().maxCoeff();
+  EXPECT_GT(by_offsets, 1e-5 * diag);
+  EXPECT_LT((fb.frame.vertices - gb.vertices).rowwise().norm().maxCoeff(), 1e-3 * by_offsets);
+
+  const vulkan::MultiresDeviceFrame ff = gpu.deform(fine, P, opt, &base);
+  const DeformResult rf = fine.deform(P, opt);
+  EXPECT_TRUE(ff.correction.control_points == rf.control_points);
+  EXPECT_EQ(ff.correction.vertices.rows(), 0);
+  // The base Deformer ran the FFD of the corrected control points in the submission:
+  // its device vertices are the frame's base vertices.
+  EXPECT_TRUE(base.vertices() == ff.base_vertices);
+  const RowMatrixX3d cpu_base = base.cpu().ffd(rf.control_points);
+  EXPECT_LT((ff.base_vertices - cpu_base).rowwise().norm().maxCoeff(), 1e-4 * diag);
+  const MultiresFrame gf = gpu.deform(rf.control_points);
+  EXPECT_LT((ff.frame.vertices - gf.vertices).rowwise().norm().maxCoeff(),
+            1e-3 * (gf.vertices - g0.vertices).rowwise().norm().maxCoeff());
+
+  // Deformers that cannot feed this frame.
+  EXPECT_THROW(gpu.deform(base, P, opt, &base), InvalidInputError);
+  Lattice L2 = s.L;
+  L2.box_max *= 1.5;
+  vulkan::VulkanDeformer other(mr->base, s.F, L2, OutsidePolicy::Error, "", GetParam());
+  EXPECT_THROW(gpu.deform(other, P, opt), InvalidInputError);
+  EXPECT_THROW(gpu.deform(fine, P, opt, &other), InvalidInputError);
+  if (GetParam() == vulkan::Precision::Float64) {
+    vulkan::VulkanDeformer other_prec(mr->base, s.F, s.L, OutsidePolicy::Error, "", vulkan::Precision::FloatFloat);
+    EXPECT_THROW(gpu.deform(other_prec, P, opt), InvalidInputError);
+  }
+  // The correction's own errors pass through, and the frame works afterwards.
+  EXPECT_THROW(gpu.deform(base, P.topRows(3), opt), InvalidInputError);
+  EXPECT_TRUE(gpu.deform(base, P, plain).frame.vertices == g0.vertices);
+}
+
 TEST(Vulkan, MultiresRefusesPeriodicLattice) {
   Scene s = sphere(2, 3, {6, 6, 6});
   auto mr = std::make_shared<Multires>(decompose(s.V, s.F, 3.0));

@@ -266,6 +266,9 @@ def normal_angle_bound(lat, rest_vertices, control_points, jacobians, rest_norma
 # the value, a nested float32 sum of K_u K_v K_w terms with those values, by at most
 #   eS = R (eB_u + eB_v + eB_w) + (K_u + K_v + K_w + 4) u R        (times 1.01)
 # (basis values; the three levels of sums and products; the control points' rounding).
+# After a Deformer's frame in the same submission (corrected.comp) the control points are
+# fl(fl(P - o) + offset): a second rounding, u (R + |offset|), added to eS and, as
+# normal_angle_bound's `dmax`, to the Jacobian's columns.
 # All further steps are float32 operations on rounded data (S_u, S_v, d and the six
 # coefficients each rounded once: u of themselves); with x~ = |x| + e_x, a product
 # rounded once per operation and the vector forms of componentwise bounds (Minkowski:
@@ -282,19 +285,22 @@ def normal_angle_bound(lat, rest_vertices, control_points, jacobians, rest_norma
 # 4 u for the final normalisation and 2^-40 for the CPU's double arithmetic (its values
 # err by a few 1e-16 relative). Every |.| without ~ is the CPU's (double) value.
 
-def multires_bounds(lat, frame_data, control_points, values, jacobians):
+def multires_bounds(lat, frame_data, control_points, values, jacobians, offsets=None):
     """Per vertex ((V,) world units, (V,) degrees): bounds on the distance between the
     device's and the CPU's (MultiresFFD) vertices, and on the angle between their
     approximate normals, for control points ``control_points`` (the derivation above).
     ``frame_data``: ``Multires.frame_data()``; ``values``, ``jacobians``: the CPU's D and
-    J at the foot points (``MultiresFFD.foot_values_jacobians``). The foot points must
-    lie in the lattice box (the basis values are then non-negative)."""
+    J at the foot points (``MultiresFFD.foot_values_jacobians``). ``offsets``: the
+    correction's offsets when the device added them to the control points (a frame after
+    a Deformer's). The foot points must lie in the lattice box (the basis values are then
+    non-negative)."""
     foot = np.asarray(frame_data["foot_points"], float)
     assert np.all(foot >= lat.box_min) and np.all(foot <= lat.box_max), "a foot point outside the box"
     o = 0.5 * (lat.box_min + lat.box_max)
-    e, R, eB = _jacobian_errors(lat, foot, control_points)
+    dmax = 0.0 if offsets is None else float(np.abs(np.asarray(offsets, float)).max(initial=0.0)) * np.sqrt(3)
+    e, R, eB = _jacobian_errors(lat, foot, control_points, dmax)
     Ks = [d + 1 for d in lat.degree]
-    eS = 1.01 * (R * eB.sum(axis=0) + (sum(Ks) + 4) * U32 * R)
+    eS = 1.01 * (R * eB.sum(axis=0) + (sum(Ks) + 4) * U32 * R + (U32 * (R + dmax) if offsets is not None else 0.0))
     J = np.asarray(jacobians, float).reshape(-1, 3, 3)
     cn = np.linalg.norm(J, axis=1)  # |c_a|, (V, 3)
     norm = lambda x: np.linalg.norm(x, axis=1)  # noqa: E731

@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 import vpffd
+from vpffd import _core
 from vpffd.normals import angles_deg
 
 # Exactness budget (identity, rigid motions, RBF interpolation): every output is a
@@ -297,3 +298,32 @@ def test_cli_deform_multires(tmp_path, capsys):
     np.testing.assert_allclose(m.vertices, want, atol=2e-7 * _diag(want))
     assert main(["deform", str(tmp_path / "in.ply"), str(tmp_path / "o.ply"), "--multires", "0"]) == 2
     assert "--multires" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def big_bumpy():
+    """40962 vertices: above the core's parallel threshold (32768), so threads split the work."""
+    mesh = vpffd.shapes.bumpy_sphere(6)
+    return mesh, vpffd.Multires(mesh, smoothing=10)
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])
+def test_cell_run_frames_do_not_depend_on_threads(big_bumpy, degree):
+    # The cell-run kernel (uniform orders) evaluates each foot point with the same
+    # arithmetic whichever thread, lane or run piece it falls in: the same bits.
+    # (Its agreement with the per-point kernel is bounded in tests/cpp/test_multires.cpp.)
+    mesh, mr = big_bumpy
+    lat = vpffd.Lattice.around(mesh, shape=(6, 7, 8), degree=degree)
+    ffd = _core.MultiresFFD(mr._m, lat._spec, 1)
+    assert ffd.uses_cell_runs
+    for axis in "xyz":
+        P = np.ascontiguousarray(vpffd.twist(lat.control_points, 60, axis=axis).reshape(-1, 3))
+        X1, N1 = ffd.deform(P, 1)
+        for threads in (2, 3):
+            X, N = ffd.deform(P, threads)
+            np.testing.assert_array_equal(X, X1)
+            np.testing.assert_array_equal(N, N1)
+        S1, J1 = ffd.foot_values_jacobians(P, 1)
+        S3, J3 = ffd.foot_values_jacobians(P, 3)
+        np.testing.assert_array_equal(S1, S3)
+        np.testing.assert_array_equal(J1, J3)

@@ -73,14 +73,15 @@ def scene(request, precision):
     return mesh, mr, lat, cpu, gpu
 
 
-def _check(mr, lat, cpu, P, X, N):
+def _check(mr, lat, cpu, P, X, N, offsets=None):
     """Device vertices X and normals N against the CPU's for control points P, within
-    the derived bounds; returns (position bound / diagonal, normal angle bound in
-    degrees), the largest over the vertices."""
+    the derived bounds (``offsets``: those the device added to the control points);
+    returns (position bound / diagonal, normal angle bound in degrees), the largest over
+    the vertices."""
     P = np.ascontiguousarray(np.asarray(P, float).reshape(-1, 3))
     Xc, Nc = cpu._ffd.deform(P, 1)
     S1, J = cpu._ffd.foot_values_jacobians(P, 1)
-    bp, ba = multires_bounds(lat, mr.frame_data(), P, S1, J)
+    bp, ba = multires_bounds(lat, mr.frame_data(), P, S1, J, offsets)
     dp = np.linalg.norm(X - Xc, axis=1)
     ang = angles_deg(N, Nc)
     assert X.shape == N.shape == (mr.n_vertices, 3) and X.dtype == N.dtype == np.float64
@@ -126,8 +127,9 @@ def test_vulkan_volume_modes(scene, volume):
     r = gpu.deform(P, volume=volume)
     c = cpu.deform(P, volume=volume)
     assert r.volume_mode == volume and r.backend == "vulkan"
-    # Positions and normals are the device reconstruction of the device's own control points.
-    _check(mr, lat, cpu, r.control_points, r.vertices, r.normals)
+    # Positions and normals are the device reconstruction of the device's own control
+    # points, which it summed itself (P + offsets, in the same submission).
+    _check(mr, lat, cpu, r.control_points, r.vertices, r.normals, offsets=r.control_points - P)
     if volume == "base":
         # The base's corrected volume: the Vulkan Deformer's derived bound (gpu_bounds.Bounds).
         cb = cpu._base.deform(P)
@@ -138,6 +140,57 @@ def test_vulkan_volume_modes(scene, volume):
         assert fine.backend == "vulkan"
     # The fine mesh's volume error is of the method (the CPU's), not of the arithmetic.
     assert abs(r.volume_error - c.volume_error) <= 0.05 * c.volume_error + 1e-6
+
+
+def test_vulkan_frame_is_one_submission_after_the_deformer(scene):
+    """The reconstruction is a tail of the Deformer's submission and reads its control
+    points from the device: without a correction they are the very floats a standalone
+    frame uploads (bit-identical results); with one, the base Deformer's frame is the
+    correction itself (volume "base") or refreshed with the FFD of the corrected
+    control points in the same submission (volume "fine")."""
+    mesh, mr, lat, cpu, gpu = scene
+    P = vpffd.twist(lat.control_points, 60, axis="z")
+    r = gpu.deform(P, preserve_volume=False)
+    X, N = gpu._vk.deform(np.ascontiguousarray(P.reshape(-1, 3)))
+    np.testing.assert_array_equal(r.vertices, X)
+    np.testing.assert_array_equal(r.normals, N)
+    Pm = _pull_four(lat)
+    rb = gpu.deform(Pm, volume="base", axes="xy", rounds=2)
+    alone = gpu._base.deform(Pm, axes="xy", rounds=2)
+    np.testing.assert_array_equal(rb.control_points, alone.control_points)
+    np.testing.assert_array_equal(rb.base_vertices, alone.vertices)
+    rf = gpu.deform(Pm, volume="fine")
+    np.testing.assert_array_equal(gpu._base._vk.vertices(), rf.base_vertices)
+    # The base Deformer's device FFD of the corrected control points (its derived bound,
+    # about 3e-5 of the diagonal for a cubic lattice: see VulkanDeformer).
+    np.testing.assert_allclose(rf.base_vertices, cpu._base.ffd(rf.control_points), rtol=0, atol=1e-4 * _diag(lat))
+    np.testing.assert_array_equal(rf.control_points, gpu._fine_deformer().deform(Pm).control_points)
+
+
+def test_vulkan_correction_options_are_the_deformers(scene):
+    mesh, mr, lat, cpu, gpu = scene
+    P = _pull_four(lat)
+    fixed = np.zeros(lat.shape, bool)
+    fixed[0] = True
+    w = np.ones(lat.shape)
+    w[:, 0] = 10.0
+    for kw in (dict(fixed=fixed), dict(weights=w), dict(weights="auto"), dict(axes="z")):
+        r = gpu.deform(P, **kw)
+        c = cpu._base.deform(P, **kw)
+        # The device's offsets: within 1e-6 of the box of the CPU's (float32 positions,
+        # reals for the sums; VulkanDeformer's bound is about 3e-5 of the diagonal).
+        np.testing.assert_allclose(r.control_points, c.control_points, rtol=0, atol=1e-4 * _diag(lat))
+        if "fixed" in kw:
+            np.testing.assert_array_equal(r.control_points[0], P[0])
+    for bad in (dict(weights=np.ones(3)), dict(weights="none"), dict(fixed=np.ones(2, bool))):
+        with pytest.raises(vpffd.InvalidInputError):
+            gpu.deform(P, **bad)
+    with pytest.raises(TypeError):
+        gpu.deform(P, axes=3)
+    with pytest.raises(TypeError):
+        gpu.deform(P, rounds=1.5)
+    with pytest.raises(vpffd.InvalidInputError):
+        gpu.deform(P, axes="xq")
 
 
 def test_vulkan_exact_normals_are_those_of_the_device_vertices(scene):

@@ -73,6 +73,20 @@ void bind_multires(py::module_& m) {
           },
           py::arg("control_points"), py::arg("threads") = 0, "(vertices (V, 3), unit normals (V, 3)).")
       .def(
+          "deform_per_point",
+          [](const MultiresFFD& d, RefV P, int threads) {
+            MultiresFrame f;
+            {
+              py::gil_scoped_release release;
+              f = d.deform_per_point(P, threads);
+            }
+            return frame_to_python(std::move(f));
+          },
+          py::arg("control_points"), py::arg("threads") = 0,
+          "deform() with the per-point kernel (its reference): (vertices (V, 3), unit normals (V, 3)).")
+      .def_property_readonly("uses_cell_runs", &MultiresFFD::uses_cell_runs)
+      .def_property_readonly("held_bytes_per_vertex", &MultiresFFD::held_bytes_per_vertex)
+      .def(
           "foot_values_jacobians",
           [](const MultiresFFD& d, RefV P, int threads) {
             RowMatrixX3d X;
@@ -83,7 +97,20 @@ void bind_multires(py::module_& m) {
             }
             return py::make_tuple(X, J);
           },
-          py::arg("control_points"), py::arg("threads") = 0, "(D at the foot points (V, 3), Jacobians (V, 9)).");
+          py::arg("control_points"), py::arg("threads") = 0, "(D at the foot points (V, 3), Jacobians (V, 9)).")
+      .def(
+          "foot_values_jacobians_per_point",
+          [](const MultiresFFD& d, RefV P, int threads) {
+            RowMatrixX3d X;
+            RowMatrixXd J;
+            {
+              py::gil_scoped_release release;
+              d.foot_values_jacobians_per_point(P, X, J, threads);
+            }
+            return py::make_tuple(X, J);
+          },
+          py::arg("control_points"), py::arg("threads") = 0,
+          "foot_values_jacobians with the per-point kernel (the reference).");
 
   py::class_<RbfWeights>(m, "RbfWeights", "A solved RBF map (normalised coordinates).")
       .def_readonly("w", &RbfWeights::w)

@@ -161,7 +161,23 @@ void bind_vulkan(py::module_& m) {
             }
             return py::make_tuple(py::cast(std::move(f.vertices)), py::cast(std::move(f.normals)));
           },
-          py::arg("control_points"), "(vertices (V, 3), approximate unit normals (V, 3)), input order.");
+          py::arg("control_points"), "(vertices (V, 3), approximate unit normals (V, 3)), input order.")
+      .def(
+          "deform_after",
+          [](VulkanMultires& d, VulkanDeformer& correction, RefV P, const CorrectionOptions& o,
+             VulkanDeformer* base) {
+            vulkan::MultiresDeviceFrame f;
+            {
+              py::gil_scoped_release release;
+              f = d.deform(correction, P, o, base);
+            }
+            return py::make_tuple(py::cast(std::move(f.frame.vertices)), py::cast(std::move(f.frame.normals)),
+                                  py::cast(std::move(f.base_vertices)), result_to_python(std::move(f.correction)));
+          },
+          py::arg("correction"), py::arg("control_points"), py::arg("options"), py::arg("base") = nullptr,
+          "One submission: correction's frame (as VulkanDeformer.deform), then the reconstruction from its "
+          "corrected control points (and, with base, the base Deformer's FFD of them): (vertices, normals, "
+          "base vertices, the correction's result dict without 'vertices').");
 }
 
 }  // namespace vpffd::bindings

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -79,6 +80,17 @@ struct Shape {
   bool operator==(const Shape& o) const {
     return mode == o.mode && measure == o.measure && open == o.open && normals == o.normals && axes == o.axes;
   }
+};
+
+// Commands of another device class (VulkanMultires) that run after a VulkanDeformer's
+// frame in the same vkQueueSubmit and read what the frame left in the device buffers:
+// no host round trip between the correction and what follows it.
+struct FrameTail {
+  // Called with the frame's lock held, after its data are staged, before the submission;
+  // `corrected`: delta's rows 0-2 hold the frame's offsets (else P alone drives it).
+  std::function<VkCommandBuffer(bool corrected)> record;
+  // Called after the wait, with the lock still held (the frame's results are final).
+  std::function<void()> finish;
 };
 
 }  // namespace detail
@@ -328,6 +340,20 @@ struct VulkanDeformer::Impl {
     copy(up_n0, buf[bNrm0], 12 * nv);
     if (!rb_N.handle()) rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "normals (read-back)");
     return true;
+  }
+
+  // One frame (VulkanDeformer::deform); `tail`, when given, runs after it in the same
+  // submission (see FrameTail).
+  DeformResult run_frame(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt, bool read_vertices,
+                         RowMatrixX3d* normals, const detail::FrameTail* tail);
+
+  // Into `cb` (a caller's, begun; frame_mutex held): the plain FFD of the control points
+  // in buf[bP] and the copy of the vertices to rb_X (readback() must have run).
+  void record_ffd_readback(VkCommandBuffer cb) {
+    barrier(cb);
+    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
+    dispatch(cb, kFfd, g_vert, Push{});
+    copy(cb, buf[bX], rb_X, 12 * nv);
   }
 
   // Uploads the constraint block (into `cmd`, begun) when the rows or the weights changed.

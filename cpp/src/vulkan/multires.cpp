@@ -4,7 +4,10 @@
 // so both evaluate the same spans), sorts the vertices by lattice cell and uploads the
 // frame data once; a frame is: upload copy of the control points -> dispatch ->
 // copies of positions and normals to the host, one submission of a command buffer
-// recorded once.
+// recorded once. After a VulkanDeformer's frame (deform with a Deformer) the commands
+// are a tail of that frame's submission (detail::FrameTail): copies of the Deformer's
+// control points and offsets -> corrected.comp (their sum) -> [the base
+// Deformer's FFD of them] -> dispatch -> copies.
 
 #include "vpffd/backend/vulkan_multires.h"
 
@@ -39,17 +42,19 @@ struct VulkanMultires::Impl {
   double scale = 1.0;
   std::vector<std::int32_t> order;  // device vertex i is input vertex order[i]
 
-  enum Buf { bP, bTab, bSpan, bData, bX, bN, kNumBuf };
+  enum Buf { bP, bTab, bSpan, bData, bX, bN, bSrcP, bSrcDelta, kNumBuf };
   static_assert(bP == VPFFD_MR_B_P && bTab == VPFFD_MR_B_TAB && bSpan == VPFFD_MR_B_SPAN &&
                     bData == VPFFD_MR_B_DATA && bX == VPFFD_MR_B_X && bN == VPFFD_MR_B_N &&
-                    kNumBuf == VPFFD_MR_B_COUNT,
+                    bSrcP == VPFFD_MR_B_SRC_P && bSrcDelta == VPFFD_MR_B_SRC_DELTA && kNumBuf == VPFFD_MR_B_COUNT,
                 "the bindings of shaders/multires_layout.h");
   Buffer buf[kNumBuf];
   Buffer up_P, rb_X, rb_N;
 
-  detail::ComputePipelines pl;  // the descriptor set and the one pipeline
+  detail::ComputePipelines pl;  // the descriptor set and one pipeline per MultiresPipe
   Owned<VkCommandPool> cmd_pool;
   VkCommandBuffer frame_cb = VK_NULL_HANDLE;  // recorded once, submitted every frame
+  VkCommandBuffer tail_cb = VK_NULL_HANDLE;   // after a Deformer's frame: recorded per frame
+  std::uint32_t groups_cp = 1;
   Owned<VkFence> fence;
   Owned<VkQueryPool> queries;
 
@@ -64,6 +69,9 @@ struct VulkanMultires::Impl {
   void build(const std::string& selector, Precision wanted);
   void create_pipeline(const std::array<std::int32_t, 9>& spec);
   void record_frame();
+  void record_tail(VulkanDeformer::Impl& src, bool corrected, VulkanDeformer::Impl* base);
+  void read_timings(FrameTimings& tm);
+  void unpack(MultiresFrame& out) const;
   void submit_and_wait(VkCommandBuffer cb);
 };
 
@@ -72,8 +80,8 @@ void VulkanMultires::Impl::submit_and_wait(VkCommandBuffer cb) {
 }
 
 void VulkanMultires::Impl::create_pipeline(const std::array<std::int32_t, 9>& spec) {
-  detail::create_compute_pipelines(d, buf, kNumBuf, 0, spec.data(), std::uint32_t(spec.size()),
-                                   &(ff ? kMultiresShadersFF : kMultiresShaders64)[kMultires], 1, pl);
+  detail::create_compute_pipelines(d, buf, kNumBuf, 4, spec.data(), std::uint32_t(spec.size()),
+                                   ff ? kMultiresShadersFF : kMultiresShaders64, kMultiresPipes, pl);
 }
 
 void VulkanMultires::Impl::record_frame() {
@@ -100,7 +108,7 @@ void VulkanMultires::Impl::record_frame() {
   const VkBufferCopy cp{0, 0, 12 * VkDeviceSize(N)};
   vkCmdCopyBuffer(frame_cb, up_P.handle(), buf[bP].handle(), 1, &cp);
   barrier(VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, tr, cs);
-  vkCmdBindPipeline(frame_cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.pipes[0].get());
+  vkCmdBindPipeline(frame_cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.pipes[kMultires].get());
   vkCmdBindDescriptorSets(frame_cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
   vkCmdDispatch(frame_cb, groups, 1, 1);
   barrier(VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT, cs, tr);
@@ -110,6 +118,70 @@ void VulkanMultires::Impl::record_frame() {
   barrier(VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_HOST_READ_BIT, tr, VK_PIPELINE_STAGE_HOST_BIT);
   if (dev->timestamps) vkCmdWriteTimestamp(frame_cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries.get(), 1);
   detail::check(vkEndCommandBuffer(frame_cb), "vkEndCommandBuffer");
+}
+
+void VulkanMultires::Impl::record_tail(VulkanDeformer::Impl& src, bool corrected, VulkanDeformer::Impl* base) {
+  const VkCommandBuffer cb = tail_cb;
+  detail::check(vkResetCommandBuffer(cb, 0), "vkResetCommandBuffer");
+  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  detail::check(vkBeginCommandBuffer(cb, &bi), "vkBeginCommandBuffer");
+  if (dev->timestamps) {
+    vkCmdResetQueryPool(cb, queries.get(), 0, 2);
+    vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries.get(), 0);
+  }
+  // The Deformer's frame wrote its control points (a copy) and offsets (shaders); this
+  // frame's previous submission read the buffers written below: one barrier for both.
+  VulkanDeformer::Impl::barrier(cb);
+  VulkanDeformer::Impl::copy(cb, src.buf[VulkanDeformer::Impl::bP], buf[bSrcP], 12 * VkDeviceSize(N));
+  if (corrected)
+    VulkanDeformer::Impl::copy(cb, src.buf[VulkanDeformer::Impl::bDelta], buf[bSrcDelta], 24 * VkDeviceSize(N));
+  VulkanDeformer::Impl::barrier(cb);
+  const std::int32_t push = corrected ? 1 : 0;
+  vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
+  vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.pipes[kCorrected].get());
+  vkCmdPushConstants(cb, pl.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+  vkCmdDispatch(cb, groups_cp, 1, 1);
+  VulkanDeformer::Impl::barrier(cb);
+  if (base) {
+    // The base mesh's FFD of the same control points, with its own pipeline.
+    VulkanDeformer::Impl::copy(cb, buf[bP], base->buf[VulkanDeformer::Impl::bP], 12 * VkDeviceSize(N));
+    base->record_ffd_readback(cb);
+    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
+  }
+  vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.pipes[kMultires].get());
+  vkCmdDispatch(cb, groups, 1, 1);
+  VulkanDeformer::Impl::barrier(cb);
+  const VkBufferCopy cx{0, 0, 12 * VkDeviceSize(nv)};
+  vkCmdCopyBuffer(cb, buf[bX].handle(), rb_X.handle(), 1, &cx);
+  vkCmdCopyBuffer(cb, buf[bN].handle(), rb_N.handle(), 1, &cx);
+  VulkanDeformer::Impl::host_barrier(cb);
+  if (dev->timestamps) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries.get(), 1);
+  detail::check(vkEndCommandBuffer(cb), "vkEndCommandBuffer");
+}
+
+void VulkanMultires::Impl::read_timings(FrameTimings& tm) {
+  if (!dev->timestamps) return;
+  std::uint64_t ts[2] = {};
+  detail::check(vkGetQueryPoolResults(d, queries.get(), 0, 2, sizeof(ts), ts, sizeof(std::uint64_t),
+                                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+                "vkGetQueryPoolResults");
+  tm.has_timestamps = true;
+  tm.gpu_total = double(ts[1] - ts[0]) * dev->timestamp_period_ns * 1e-6;
+}
+
+void VulkanMultires::Impl::unpack(MultiresFrame& out) const {
+  out.vertices.resize(nv, 3);
+  out.normals.resize(nv, 3);
+  const float* x = static_cast<const float*>(rb_X.mapped());
+  const float* n = static_cast<const float*>(rb_N.mapped());
+  for (Index i = 0; i < nv; ++i) {
+    const Index v = order[i];
+    for (int a = 0; a < 3; ++a) {
+      out.vertices(v, a) = double(x[3 * i + a]) * scale + origin[a];
+      out.normals(v, a) = double(n[3 * i + a]);
+    }
+  }
 }
 
 void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) {
@@ -182,11 +254,14 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
   mk(bData, 4 * data.size(), "multiresolution frame data");
   mk(bX, 12 * nv, "multiresolution vertices");
   mk(bN, 12 * nv, "multiresolution normals");
+  mk(bSrcP, 12 * N, "control points of a Deformer's frame");
+  mk(bSrcDelta, 24 * N, "offsets of a Deformer's frame");
   up_P = Buffer(*dev, 12 * N, Buffer::Upload, "control points (upload)");
   rb_X = Buffer(*dev, 12 * nv, Buffer::Readback, "multiresolution vertices (read-back)");
   rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "multiresolution normals (read-back)");
 
   VkCommandPoolCreateInfo cpi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  cpi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;  // tail_cb
   cpi.queueFamilyIndex = dev->family;
   VkCommandPool cmd_pool_h = VK_NULL_HANDLE;
   detail::check(vkCreateCommandPool(d, &cpi, nullptr, &cmd_pool_h), "vkCreateCommandPool");
@@ -235,7 +310,14 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
                    poly_off[1], poly_off[2]});
   groups = static_cast<std::uint32_t>(
       std::clamp<Index>((nv + VPFFD_MR_GROUP - 1) / VPFFD_MR_GROUP, 1, dev->limits.maxComputeWorkGroupCount[0]));
+  groups_cp = static_cast<std::uint32_t>(
+      std::clamp<Index>((N + VPFFD_MR_GROUP - 1) / VPFFD_MR_GROUP, 1, dev->limits.maxComputeWorkGroupCount[0]));
   record_frame();
+  VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  cai.commandPool = cmd_pool.get();
+  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cai.commandBufferCount = 1;
+  detail::check(vkAllocateCommandBuffers(d, &cai, &tail_cb), "vkAllocateCommandBuffers");
 }
 
 // ---- public API ----------------------------------------------------------------
@@ -291,26 +373,63 @@ MultiresFrame VulkanMultires::deform(const Eigen::Ref<const RowMatrixX3d>& P) {
     }
   m.submit_and_wait(m.frame_cb);
   FrameTimings tm;
-  if (m.dev->timestamps) {
-    std::uint64_t ts[2] = {};
-    detail::check(vkGetQueryPoolResults(m.d, m.queries.get(), 0, 2, sizeof(ts), ts, sizeof(std::uint64_t),
-                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
-                  "vkGetQueryPoolResults");
-    tm.has_timestamps = true;
-    tm.gpu_total = double(ts[1] - ts[0]) * m.dev->timestamp_period_ns * 1e-6;
-  }
+  m.read_timings(tm);
   MultiresFrame out;
-  out.vertices.resize(m.nv, 3);
-  out.normals.resize(m.nv, 3);
-  const float* x = static_cast<const float*>(m.rb_X.mapped());
-  const float* n = static_cast<const float*>(m.rb_N.mapped());
-  for (Index i = 0; i < m.nv; ++i) {
-    const Index v = m.order[i];
-    for (int a = 0; a < 3; ++a) {
-      out.vertices(v, a) = double(x[3 * i + a]) * m.scale + m.origin[a];
-      out.normals(v, a) = double(n[3 * i + a]);
-    }
+  m.unpack(out);
+  tm.host_total = detail::ms_since(t_start);
+  m.timings = tm;
+  return out;
+}
+
+namespace {
+
+bool same_lattice(const Lattice& a, const Lattice& b) {
+  return a.degree == b.degree && a.knots == b.knots && a.box_min == b.box_min && a.box_max == b.box_max;
+}
+
+}  // namespace
+
+MultiresDeviceFrame VulkanMultires::deform(VulkanDeformer& correction, const Eigen::Ref<const RowMatrixX3d>& P,
+                                           const CorrectionOptions& opt, VulkanDeformer* base) {
+  const auto t_start = std::chrono::steady_clock::now();
+  Impl& m = *impl_;
+  VulkanDeformer::Impl& src = *correction.impl_;
+  VulkanDeformer::Impl* b = base ? base->impl_.get() : nullptr;
+  VPFFD_CHECK(base != &correction, "VulkanMultires: the base Deformer must not be the correction's Deformer");
+  for (const VulkanDeformer::Impl* x : {&src, b}) {
+    if (!x) continue;
+    const char* who = x == &src ? "the correction's Deformer" : "the base Deformer";
+    VPFFD_CHECK(x->dev.get() == m.dev.get(), "VulkanMultires: ", who, " runs on device ", x->dev->info.name,
+                ", this frame on ", m.dev->info.name, " (the same VkDevice is needed)");
+    VPFFD_CHECK(same_lattice(x->cpu->lattice(), m.cpu->lattice()), "VulkanMultires: ", who,
+                " has another lattice (its control points cannot drive this reconstruction)");
+    VPFFD_CHECK(x->precision == m.precision, "VulkanMultires: ", who, " sums in ", precision_name(x->precision),
+                ", this frame in ", precision_name(m.precision));
+    // Same lattice, so same units; checked because the copies assume them.
+    VPFFD_CHECK(x->origin == m.origin && x->scale == m.scale, "VulkanMultires: ", who,
+                " has other device units");
   }
+  std::lock_guard<std::mutex> lock(m.mutex);
+  std::unique_lock<std::mutex> base_lock;
+  MultiresDeviceFrame out;
+  FrameTimings tm;
+  detail::FrameTail tail;
+  tail.record = [&](bool corrected) {
+    if (b) {
+      base_lock = std::unique_lock<std::mutex>(b->frame_mutex);
+      b->settle();
+      b->readback();  // its read-back buffer, made on first use
+    }
+    m.record_tail(src, corrected, b);
+    return m.tail_cb;
+  };
+  tail.finish = [&] {
+    m.read_timings(tm);
+    m.unpack(out.frame);
+    if (b) out.base_vertices = b->unpack_vertices();
+  };
+  out.correction = src.run_frame(P, opt, /*read_vertices=*/b == nullptr, nullptr, &tail);
+  if (!b) out.base_vertices = std::move(out.correction.vertices);
   tm.host_total = detail::ms_since(t_start);
   m.timings = tm;
   return out;

@@ -75,9 +75,15 @@ RowMatrixX3d VulkanDeformer::vertices() const {
 
 DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
                                     bool read_vertices, RowMatrixX3d* normals) {
+  return impl_->run_frame(P, opt, read_vertices, normals, nullptr);
+}
+
+DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
+                                             bool read_vertices, RowMatrixX3d* normals,
+                                             const detail::FrameTail* tail) {
   static const char axis_name[3] = {'x', 'y', 'z'};
   const auto t_start = std::chrono::steady_clock::now();
-  Impl& m = *impl_;
+  Impl& m = *this;
   const Deformer& cpu = *m.cpu;
   const Index N = m.N;
 
@@ -166,11 +172,12 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   // --- submit: [uploads,] the recorded frame ---------------------------------------------
   const Impl::Recorded& rec = m.frame_commands(shape);
   detail::check(vkEndCommandBuffer(m.cmd), "vkEndCommandBuffer");
-  VkCommandBuffer cbs[3];
+  VkCommandBuffer cbs[4];
   std::uint32_t n_cbs = 0;
   if (aux) cbs[n_cbs++] = m.cmd;
   cbs[n_cbs++] = rec.cb;
   if (read_vertices) cbs[n_cbs++] = m.readback();
+  if (tail) cbs[n_cbs++] = tail->record(shape.mode != Shape::Plain);
   m.submit_and_wait(cbs, n_cbs);
   if (new_invw && shape.mode == Shape::DeviceSteps) m.invw_uploaded = inv_weight;
   if (normals && !m.normals_ready) {
@@ -253,6 +260,7 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   // Under the frame's lock: another thread's frame would overwrite rb_X.
   if (read_vertices) res.vertices = m.unpack_vertices();
   if (normals) *normals = m.unpack_normals();
+  if (tail) tail->finish();
   tm.host_total = ms_since(t_start);
   m.timings = std::move(tm);
   return res;

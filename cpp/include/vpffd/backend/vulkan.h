@@ -166,6 +166,8 @@ class VulkanDeformer {
   const std::vector<std::int32_t>& vertex_order() const;
 
  private:
+  // Records its reconstruction after this deformer's frame, in the same submission.
+  friend class VulkanMultires;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

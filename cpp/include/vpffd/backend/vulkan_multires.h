@@ -10,9 +10,10 @@
 /// local parameter per axis), S_u, S_v, d and the six coefficients are uploaded once
 /// (frame_bytes_per_vertex); a frame uploads the control points (12 bytes each), runs
 /// one dispatch in one submission and reads back positions and normals (24 bytes per
-/// vertex). The control points are whatever the caller passes: a volume-corrected
-/// frame gets them from a VulkanDeformer (or the CPU Deformer) of the base or fine
-/// mesh first, a separate submission.
+/// vertex). A volume-corrected frame is one submission too: deform(correction, P, opt)
+/// appends the reconstruction to a VulkanDeformer's frame (of the base or the fine
+/// mesh) on the same device, and the dispatch reads the corrected control points
+/// (P + offsets) from that Deformer's device buffers, with no host round trip.
 ///
 /// Precision: control points, positions, tangents, d and the coefficients are float32
 /// on the device (positions relative to origin(), in units of scale(), as the
@@ -36,6 +37,14 @@
 #include "vpffd/multires/ffd_map.h"
 
 namespace vpffd::vulkan {
+
+/// A multiresolution frame that follows a VulkanDeformer's frame in one submission.
+struct MultiresDeviceFrame {
+  DeformResult correction;     ///< the Deformer's frame; its control_points drove the reconstruction
+                               ///< (its `vertices` are empty: see base_vertices)
+  MultiresFrame frame;         ///< fine vertices and approximate unit normals, input order
+  RowMatrixX3d base_vertices;  ///< #V x 3 deformed base mesh (see VulkanMultires::deform)
+};
 
 /// FFD of a decomposition's base with the fine mesh rebuilt per vertex on a device.
 class VulkanMultires {
@@ -63,6 +72,25 @@ class VulkanMultires {
   ///         the device); DeviceError on a device failure
   MultiresFrame deform(const Eigen::Ref<const RowMatrixX3d>& P);
 
+  /// One frame in one submission: `correction`'s frame (P and opt exactly as
+  /// correction.deform(P, opt)), then, on the device, its corrected control points
+  /// P + offsets (summed in the device's reals, rounded once to float32) and the
+  /// reconstruction from them.
+  /// - `correction` is the Deformer of the base mesh (base == nullptr): its vertices
+  ///   are the deformed base (`base_vertices`), read back with the frame;
+  /// - or of the fine mesh: then `base`, the Deformer of the base mesh, runs the plain
+  ///   FFD of the corrected control points in the same submission and gives
+  ///   `base_vertices` (its device vertices become those; after a correction that fails
+  ///   on the device they are the FFD of the failed frame's control points).
+  /// Both must be on this device, with this lattice and precision. Frames that share
+  /// a Deformer run one at a time: this lock is taken first, then correction's,
+  /// then base's.
+  /// @throws InvalidInputError for a Deformer of another device, lattice or precision
+  ///         (or base == &correction), and whatever correction.deform throws (then no
+  ///         reconstruction is returned)
+  MultiresDeviceFrame deform(VulkanDeformer& correction, const Eigen::Ref<const RowMatrixX3d>& P,
+                             const CorrectionOptions& opt, VulkanDeformer* base = nullptr);
+
   /// The CPU counterpart on the same decomposition and lattice (its embedding is the
   /// device's).
   const MultiresFFD& cpu() const;
@@ -70,7 +98,9 @@ class VulkanMultires {
   /// Float64 or FloatFloat (never Auto).
   Precision precision() const;
   /// The last frame: gpu_total (its dispatch and copies, when the queue has
-  /// timestamps) and host_total (deform(), end to end), milliseconds.
+  /// timestamps; after a Deformer's frame: from the end of that frame, which has its
+  /// own timings, to the end of the submission) and host_total (deform(), end to end,
+  /// the Deformer's frame included), milliseconds.
   FrameTimings last_timings() const;
   /// Reference point (the lattice box centre) and unit (the power of two nearest to its
   /// half diagonal) of the device positions, as VulkanDeformer's.

@@ -4,12 +4,19 @@
 /// place of the RBF): S' = D(S(t_i)), S'_u = J_D S_u, S'_v = J_D S_v, with the
 /// basis values and first derivatives evaluated at each foot point every frame
 /// (the foot point's span and local parameter, 36 bytes, are all it keeps).
+///
+/// Two kernels give the same frame to rounding: the per-point one (ffd_value_jacobian,
+/// basis values and derivatives per foot point, then tensor sums) and, for uniform
+/// orders 2..6, the cell-run one (multires/foot_runs.h: the foot points sorted by
+/// cell once, each cell's polynomial formed once per run, no per-point basis), which
+/// deform() uses; deform_per_point() keeps the first as the reference.
 
 #include <memory>
 
 #include "vpffd/ffd/kernels.h"
 #include "vpffd/ffd/vertex_basis.h"
 #include "vpffd/lattice/embed.h"
+#include "vpffd/multires/foot_runs.h"
 #include "vpffd/multires/reconstruct.h"
 
 namespace vpffd {
@@ -111,6 +118,7 @@ class MultiresFFD {
     for (Index i = 0; i < X.rows(); ++i) X.row(i) = m_->foot_point(i).transpose();
     embedding_ = embed(lattice_, X, OutsidePolicy::Extrapolate, threads, "foot point");
     du_dx_ = parameter_scale(lattice_);
+    if (uses_cell_runs()) runs_ = foot_runs(*m_, tables_, embedding_);
   }
 
   const Multires& multires() const { return *m_; }
@@ -124,9 +132,34 @@ class MultiresFFD {
   static constexpr int frame_bytes_per_vertex = Multires::frame_bytes_per_vertex - 3 * int(sizeof(double)) +
                                                 int(Embedding::bytes_per_point);
 
-  /// D and J_D at every foot point: (#V x 3 values, #V x 9 row-major Jacobians).
+  /// D and J_D at every foot point: (#V x 3 values, #V x 9 row-major Jacobians), with
+  /// the kernel deform() uses (cell runs where uses_cell_runs()).
   void foot_values_jacobians(const Eigen::Ref<const RowMatrixX3d>& P, RowMatrixX3d& values, RowMatrixXd& J,
                              int threads = 0) const {
+    if (!uses_cell_runs()) return foot_values_jacobians_per_point(P, values, J, threads);
+    check_control_points(P);
+    const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
+    const Index n = m_->n_vertices();
+    values.resize(n, 3);
+    J.resize(n, 9);
+    parallel_range(n, threads, [&](Index b, Index e) {
+      detail::dispatch_order(tables_, [&](auto K) {
+        if constexpr (decltype(K)::value > 0)
+          detail::foot_runs_eval<decltype(K)::value>(
+              tables_, runs_, du_dx_, Pc, b, e, [&](Index u, const Vector3d& s1, const Matrix3d& Ju) {
+                const Index i = runs_.order[u];
+                values.row(i) = s1.transpose();
+                for (int r = 0; r < 3; ++r)
+                  for (int c = 0; c < 3; ++c) J(i, 3 * r + c) = Ju(r, c);
+              });
+      });
+    });
+  }
+
+  /// foot_values_jacobians with the per-point kernel: the reference.
+  void foot_values_jacobians_per_point(const Eigen::Ref<const RowMatrixX3d>& P, RowMatrixX3d& values,
+                                       RowMatrixXd& J, int threads = 0) const {
     check_control_points(P);
     const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
     const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
@@ -147,8 +180,43 @@ class MultiresFFD {
     });
   }
 
+  /// Whether deform() runs the cell-run kernel (uniform orders 2..6) or the per-point one.
+  bool uses_cell_runs() const {
+    return detail::dispatch_order(tables_, [](auto K) { return decltype(K)::value > 0; });
+  }
+
+  /// Bytes per vertex held for the frames: the embedding (36), and with cell runs their
+  /// sorted copy of it and of the frame data (FootRuns, 168).
+  int held_bytes_per_vertex() const {
+    return int(Embedding::bytes_per_point) + (uses_cell_runs() ? FootRuns::bytes_per_vertex : 0);
+  }
+
   /// One frame with control points P (N x 3): fine vertices and approximate normals.
+  /// Cell-run kernel where uses_cell_runs() (the same frame as deform_per_point to a few
+  /// units in the last place of the largest term; see foot_runs.h); any thread count
+  /// gives the same bits.
   MultiresFrame deform(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
+    if (!uses_cell_runs()) return deform_per_point(P, threads);
+    check_control_points(P);
+    const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
+    const Index n = m_->n_vertices();
+    MultiresFrame out;
+    out.vertices.resize(n, 3);
+    out.normals.resize(n, 3);
+    parallel_range(n, threads, [&](Index b, Index e) {
+      detail::dispatch_order(tables_, [&](auto K) {
+        if constexpr (decltype(K)::value > 0)
+          detail::reconstruct_runs<decltype(K)::value>(tables_, runs_, du_dx_, Pc, out.vertices.data(),
+                                                       out.normals.data(), b, e);
+      });
+    });
+    return out;
+  }
+
+  /// The same frame with the per-point kernel (basis values and derivatives at each
+  /// foot point): the reference of deform().
+  MultiresFrame deform_per_point(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P);
     const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
     const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
@@ -179,6 +247,7 @@ class MultiresFFD {
   BasisTables tables_;
   Embedding embedding_;
   Vector3d du_dx_;
+  FootRuns runs_;  // empty unless uses_cell_runs()
 };
 
 }  // namespace vpffd

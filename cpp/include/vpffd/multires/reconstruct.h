@@ -22,6 +22,17 @@ struct MultiresFrame {
   RowMatrixX3d normals;   ///< #V x 3 unit (zero where the deformed tangents are parallel)
 };
 
+/// One vertex from the deformed foot point s1 and tangents su1, sv1: p' (eq. 1) and
+/// the approximate normal n' (eqs. 6-7; zero where su1 and sv1 are parallel).
+VPFFD_ALWAYS_INLINE void reconstruct_vertex(const Vector3d& s1, const Vector3d& su1, const Vector3d& sv1, double d,
+                                            const NormalCoefficients& c, Vector3d& p, Vector3d& n) {
+  const Vector3d cr = su1.cross(sv1);
+  const double len = cr.norm();
+  const Vector3d ns = len > 0 ? Vector3d(cr / len) : Vector3d::Zero();
+  p = s1 + d * ns;
+  n = reconstruct_normal(c, su1, sv1, ns);
+}
+
 /// Reconstructs all vertices of m with `map(i, S, Su, Sv, S', Su', Sv')` (Vector3d
 /// in, Vector3d& out). `map` is called concurrently for different i.
 template <class Map>
@@ -32,13 +43,11 @@ MultiresFrame reconstruct(const Multires& m, Map&& map, int threads = 0) {
   out.normals.resize(n, 3);
   parallel_range(n, threads, [&](Index b, Index e) {
     for (Index i = b; i < e; ++i) {
-      Vector3d s, su, sv;
+      Vector3d s, su, sv, p, n;
       map(i, m.foot_point(i), m.tangent_u(i), m.tangent_v(i), s, su, sv);
-      const Vector3d c = su.cross(sv);
-      const double len = c.norm();
-      const Vector3d ns = len > 0 ? Vector3d(c / len) : Vector3d::Zero();
-      out.vertices.row(i) = (s + m.d[i] * ns).transpose();
-      out.normals.row(i) = reconstruct_normal(m.coefficients(i), su, sv, ns).transpose();
+      reconstruct_vertex(s, su, sv, m.d[i], m.coefficients(i), p, n);
+      out.vertices.row(i) = p.transpose();
+      out.normals.row(i) = n.transpose();
     }
   });
   return out;

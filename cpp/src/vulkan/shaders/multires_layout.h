@@ -1,6 +1,7 @@
 // The buffer layout of the multiresolution frame (multires.comp, VulkanMultires),
 // defined once for GLSL and C++ like layout.h: its own descriptor set, since it shares
-// only the device with a VulkanDeformer, not its buffers.
+// only the device with a VulkanDeformer, not its buffers (a frame after a Deformer's
+// copies that Deformer's control points and offsets into SRC_P and SRC_DELTA).
 #ifndef VPFFD_VULKAN_MULTIRES_LAYOUT_H
 #define VPFFD_VULKAN_MULTIRES_LAYOUT_H
 
@@ -12,7 +13,9 @@
 #define VPFFD_MR_B_DATA 3   // float, MR_ROWS rows of V (SoA): the per-vertex frame data (MR_*)
 #define VPFFD_MR_B_X 4      // 3V float: fine vertices p', relative to the origin, in scale units
 #define VPFFD_MR_B_N 5      // 3V float: approximate unit normals (eqs. 6-7)
-#define VPFFD_MR_B_COUNT 6
+#define VPFFD_MR_B_SRC_P 6  // 3N float: a VulkanDeformer's control points of the frame (same units)
+#define VPFFD_MR_B_SRC_DELTA 7  // 3N real: its offsets, row a = axis a (delta rows 0-2, layout.h)
+#define VPFFD_MR_B_COUNT 8
 
 #define VPFFD_MR_GROUP 256  // workgroup size
 
