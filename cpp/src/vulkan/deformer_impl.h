@@ -333,9 +333,9 @@ struct VulkanDeformer::Impl {
     submit_and_wait();
   }
 
-  // The first frame with normals (after construction or a move): their buffers, and the rest normals uploaded (into
-  // `cmd`, begun) as deformed_normals uses them (vertex_normals of the rest mesh), in
-  // the device order. Returns whether `cmd` got work.
+  // The first frame with normals after construction or a move: their buffers, and the
+  // rest normals uploaded (into `cmd`, begun) as deformed_normals uses them
+  // (vertex_normals of the rest mesh), in the device order. Returns whether `cmd` got work.
   bool prepare_normals() {
     if (normals_ready) return false;
     reserve(bNrm0, &up_n0, 12 * nv, "rest normals");

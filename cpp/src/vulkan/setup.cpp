@@ -32,9 +32,10 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   const Deformer& c = *cpu;
   const Lattice& L = c.lattice();
   const BasisTables& T = c.tables();
-  // The CPU Deformer's processing order (cells), faces and adjacency: a cell's
-  // vertices share their K^3 control points, which the tiles of coef.comp reduce in
-  // shared memory.
+  // The device's vertex slots, for the deformer's life: the CPU Deformer's processing
+  // order (by cell) of the first rest mesh, with its faces and adjacency. The device
+  // sorts the slots by cell again after every move (rest_embedding.cpp); at
+  // construction that stable sort leaves them in this order.
   const std::vector<std::int32_t>& order = c.processing_order();
   const RowMatrixX3i& Fs = c.processing_faces();
   const VertexFaces& adj = c.processing_adjacency();
