@@ -8,13 +8,20 @@
 //   pc.flags 1, scatter: each workgroup walks its block in chunks of
 //     VPFFD_SORT_DIGITS pairs, in order; a pair goes to its block's first position for
 //     its digit plus the pairs of that digit in the block's earlier chunks (s_run) plus
-//     those before it in its chunk (counted, not claimed atomically).
+//     those before it in its chunk: the set bits below its own in the digit's 256-bit
+//     mask of the chunk (built with atomicOr, whose result does not depend on order),
+//     a few popcounts instead of a comparison with every earlier pair.
 // Integer work only and stable: equal cells keep the slot order, and the result does
 // not depend on scheduling.
 #include "common.glsl"
 layout(local_size_x = VPFFD_SORT_DIGITS) in;
-shared uint s_count[VPFFD_SORT_DIGITS];  // count: per digit; scatter: the chunk's digits
-shared uint s_run[VPFFD_SORT_DIGITS];
+#if VPFFD_SORT_DIGITS != 256
+#error "a chunk of VPFFD_SORT_DIGITS pairs is described by 8 words of 32 bits per digit"
+#endif
+const uint MASK_WORDS = 8u;
+shared uint s_count[VPFFD_SORT_DIGITS];                // count: pairs per digit
+shared uint s_run[VPFFD_SORT_DIGITS];                  // scatter: pairs per digit in earlier chunks
+shared uint s_mask[VPFFD_SORT_DIGITS * MASK_WORDS];    // scatter: per digit, which of the chunk's pairs have it
 
 void count_digits(uint l, uint b, int src, int shift) {
   s_count[l] = 0u;
@@ -29,30 +36,33 @@ void count_digits(uint l, uint b, int src, int shift) {
 
 void scatter(uint l, uint b, int src, int shift) {
   const int dst = 2 * NVERT - src;
+  const uint word = l / 32u, bit = l % 32u;
   s_run[l] = 0u;
-  barrier();
   for (uint c = 0u; c < uint(VPFFD_SORT_BLOCK); c += VPFFD_SORT_DIGITS) {
+    for (uint w = 0u; w < MASK_WORDS; ++w) s_mask[l * MASK_WORDS + w] = 0u;  // digit l's mask
+    barrier();
     const uint e = b * uint(VPFFD_SORT_BLOCK) + c + l;
     const bool here = e < uint(NVERT);
     int key = 0, slot = 0;
-    uint dg = uint(VPFFD_SORT_DIGITS);  // no pair: no digit
+    uint dg = 0u;
     if (here) {
       key = sorted[src + 2 * e];
       slot = sorted[src + 2 * e + 1];
       dg = (uint(key) >> shift) & uint(VPFFD_SORT_DIGITS - 1);
+      atomicOr(s_mask[dg * MASK_WORDS + word], 1u << bit);  // OR: the same bits in any order
     }
-    s_count[l] = dg;
     barrier();
     if (here) {
-      uint r = 0u;
-      for (uint j = 0u; j < l; ++j) r += s_count[j] == dg ? 1u : 0u;
+      // The pairs of this digit before this one in the chunk: the mask's lower bits.
+      uint r = uint(bitCount(s_mask[dg * MASK_WORDS + word] & ((1u << bit) - 1u)));
+      for (uint w = 0u; w < word; ++w) r += uint(bitCount(s_mask[dg * MASK_WORDS + w]));
       const uint p = scan_buf[dg * uint(pc.count) + b] + s_run[dg] + r;
       sorted[dst + 2 * p] = key;
       sorted[dst + 2 * p + 1] = slot;
     }
-    barrier();
+    barrier();  // s_run read by all before it grows
     uint n = 0u;
-    for (uint j = 0u; j < uint(VPFFD_SORT_DIGITS); ++j) n += s_count[j] == l ? 1u : 0u;
+    for (uint w = 0u; w < MASK_WORDS; ++w) n += uint(bitCount(s_mask[l * MASK_WORDS + w]));
     s_run[l] += n;
     barrier();
   }
