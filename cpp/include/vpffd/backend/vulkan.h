@@ -5,7 +5,9 @@
 /// A VulkanDeformer runs a whole frame on one device: plain FFD, per axis step
 /// (`rounds` times through the axes) the volume coefficients, the closed-form offsets
 /// and the update of the vertices, and the volume measurements, in a single queue
-/// submission. Mesh data and per-vertex basis data are uploaded once; the frame's
+/// submission. Mesh data are uploaded once, and the rest positions, from which the
+/// device computes the per-vertex basis data (span, local parameter) and the sort of
+/// the vertices by lattice cell, at construction and per set_rest_vertices; the frame's
 /// command buffer is recorded once per options shape (axes, rounds, volume or not)
 /// and reused; a frame uploads the control points and a few scalars (the point
 /// constraints' block only when the constraint sources or the weights change) and
