@@ -242,3 +242,24 @@ def test_extrapolate_moves_outside(precision):
     # Exactly on the affine map: the CPU's identity frame of the moved mesh.
     c = vpffd.Deformer(_mesh(X, mesh.faces), lat, backend="serial", outside="extrapolate")
     assert np.abs(rest - c.ffd(lat.rest_points)).max() <= bound + 1e-12
+
+
+def test_scattered_positions_exercise_the_cell_sort(precision):
+    # Every vertex to a random place in the box (the faces stay: a tangled but closed
+    # surface): slots land in cells in no relation to their order, many cells hold a
+    # few vertices, and cell keys use both digits (12^3 control points). A wrong sort
+    # or tile table would give wrong volume coefficients, hence other offsets.
+    mesh = vpffd.shapes.icosphere(4)
+    lat = _lattice(shape=(12, 12, 12), degree=3)
+    P = edit(lat)
+    rng = np.random.default_rng(7)
+    g = gpu_deformer(mesh, lat, precision)
+    c = vpffd.Deformer(mesh, lat, backend="serial")
+    for _ in range(2):
+        X = rng.uniform(-1.9, 1.9, mesh.vertices.shape)
+        g.set_rest_vertices(X)
+        c.set_rest_vertices(X)
+        moved = _mesh(X, mesh.faces)
+        for kw in (dict(preserve_volume=False), dict(target_volume=c.rest_volume + 0.5), dict(axes="yz", rounds=2,
+                                                                                          target_volume=1.0)):
+            check_frame(g.deform(P, **kw), c.deform(P, **kw), moved, lat, cpu=c)
