@@ -28,7 +28,9 @@
 //   so the pipelines never change (the extra tiles are empty).
 // - Point constraints at vertices take their basis at the vertex's current rest
 //   position: after a move frames pass them to the CPU's plan as point constraints at
-//   that position (the plan embeds those few points on the host).
+//   that position (the plan embeds those few points on the host). The default volume
+//   target is rest_vol, at construction too (the same code, so moving back to the
+//   construction's positions gives its frames bit for bit).
 // - The CPU Deformer `cpu` (edges, ffd, jacobians, matrices, error messages) follows a
 //   move lazily: frames do not need it, and synced_cpu() re-embeds it on the host on
 //   its first use after a move.
@@ -159,7 +161,6 @@ const CorrectionOptions& VulkanDeformer::Impl::plan_options(const CorrectionOpti
       c.point = rest.row(c.vertex).transpose();
       c.vertex = -1;
     }
-  if (std::isnan(storage.target_volume)) storage.target_volume = rest_vol;
   return storage;
 }
 

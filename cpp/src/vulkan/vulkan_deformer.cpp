@@ -86,7 +86,10 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
 
   // --- options: the CPU backend's own checks (the free control points and the
   // method included), so both refuse the same input ----------------------------------
-  const FramePlan pl = cpu.plan(P, po);
+  FramePlan pl = cpu.plan(P, po);
+  // The default target is the rest volume this deformer computed (rest_embedding.cpp):
+  // the same number at construction and after any move.
+  if (std::isnan(opt.target_volume)) pl.target = m.rest_vol;
   const bool correcting = pl.correcting;
   const bool measure = pl.measure;
   const double target = pl.target;
