@@ -135,20 +135,28 @@ class Deformer:
                 warnings.warn(f"Deformer: backend 'auto' could not use Vulkan ({e}); using the CPU", stacklevel=2)
                 self.backend, self._threads, _ = _resolve_backend("openmp" if _core.has_openmp() else "serial",
                                                                   threads)
-        # The CPU core keeps the rest volume, matrices, ffd() and jacobians() for both.
-        self._d = self._vk.cpu if self._vk is not None else _core.Deformer(
+        # The CPU core keeps the matrices, ffd() and jacobians() for both. On "vulkan" it
+        # is the device deformer's CPU twin, which follows set_rest_vertices lazily: `_d`
+        # brings it up to date, `_core` (faces, sizes, labels: what a move keeps) does not.
+        self._core = self._vk.cpu if self._vk is not None else _core.Deformer(
             self.mesh.vertices, self.mesh.faces, lattice._spec, outside, self._threads, labels)
         self._last_frame = None  # Vulkan: (control points, options) of the last frame kept (see on_fold)
         if labels is not None:
-            _check_memory(lattice.n_control_points, f"Deformer with {self._d.n_parts} parts",
-                          _FRAME_BYTES_PER_CONTROL_POINT + _FRAME_BYTES_PER_CONTROL_POINT_AND_PART * self._d.n_parts,
+            _check_memory(lattice.n_control_points, f"Deformer with {self._core.n_parts} parts",
+                          _FRAME_BYTES_PER_CONTROL_POINT + _FRAME_BYTES_PER_CONTROL_POINT_AND_PART * self._core.n_parts,
                           _BYTES_PER_VERTEX * self.mesh.n_vertices)
+
+    @property
+    def _d(self):
+        """The CPU core Deformer of the current rest mesh. On "vulkan" the first use after
+        ``set_rest_vertices`` re-embeds it on the host (frames never need it)."""
+        return self._vk.cpu if self._vk is not None else self._core
 
     # --- properties -----------------------------------------------------------
     @property
     def rest_volume(self) -> float:
         """Volume of the rest mesh (raises for an open mesh)."""
-        return self._d.rest_volume()
+        return self._vk.rest_volume() if self._vk is not None else self._core.rest_volume()
 
     @property
     def rest_vertices(self) -> np.ndarray:
@@ -158,25 +166,25 @@ class Deformer:
     @property
     def n_parts(self) -> int:
         """Number of parts (1 without ``parts``: the whole mesh)."""
-        return self._d.n_parts
+        return self._core.n_parts
 
     @property
     def part_labels(self):
         """(K,) int64 the label of each part, in the order of ``part_volumes`` (for
         ``parts="components"``: 0..K-1, components numbered by their lowest vertex);
         None without parts."""
-        return np.array(self._d.part_labels, dtype=np.int64) if self._d.has_parts else None
+        return np.array(self._core.part_labels, dtype=np.int64) if self._core.has_parts else None
 
     @property
     def vertex_parts(self):
         """(V,) int32 the part index (0..K-1) of each vertex; None without parts.
         Vertices that no face uses are in part 0."""
-        return self._d.vertex_parts if self._d.has_parts else None
+        return self._core.vertex_parts if self._core.has_parts else None
 
     @property
     def rest_part_volumes(self):
         """(K,) float64 the volume of each part of the rest mesh; None without parts."""
-        return self._d.rest_part_volumes() if self._d.has_parts else None
+        return self._core.rest_part_volumes() if self._core.has_parts else None
 
     def set_rest_vertices(self, vertices) -> None:
         """Moves the rest mesh: the next frame deforms ``vertices`` (V, 3) (same faces)
@@ -184,8 +192,12 @@ class Deformer:
         order and rest volume(s), so an object can travel through the lattice frame
         by frame. On the CPU it costs about one xyz frame (embedding, two counting
         sorts, renumbering the faces and rebuilding the vertex rings; measured by
-        ``bench/python/bench_parts.py``). ``mesh`` becomes a new Mesh of these
-        vertices; the caller's array is copied, never modified.
+        ``bench/python/bench_parts.py``). On "vulkan" only the vertices go to the
+        device, which embeds them and sorts them by lattice cell itself (the rest
+        volume is summed on the host in float64); the result equals a Vulkan Deformer
+        built on the moved mesh within the backend's float32 tolerance
+        (``bench/python/bench_motion.py`` measures the cost). ``mesh`` becomes a new
+        Mesh of these vertices; the caller's array is copied, never modified.
 
         Raises
         ------
@@ -193,26 +205,22 @@ class Deformer:
             wrong shape, NaN/Inf, or vertices outside the lattice box (unless built
             with ``outside="extrapolate"``): the message says how many and the first.
             The Deformer is unchanged then.
-        BackendUnavailableError
-            on "vulkan": moving the rest mesh runs on the CPU backends only (the
-            device's embedding kernel and on-device cell sort are not built yet).
         """
         X = _arrays.points(vertices, "set_rest_vertices: vertices", rows=self.mesh.n_vertices)
         if self._vk is not None:
-            raise BackendUnavailableError(
-                "set_rest_vertices: moving the rest mesh runs on the CPU backends only (the Vulkan backend embeds "
-                "its vertices once); build this Deformer with backend='openmp' or 'serial'")
-        self._d.set_rest_vertices(X, self._threads)
+            self._vk.set_rest_vertices(X)
+        else:
+            self._core.set_rest_vertices(X, self._threads)
         self.mesh = self.mesh._with_vertices(X)
 
     @property
     def bytes_per_vertex(self) -> float:
         """Per-vertex data kept between frames, in bytes."""
-        return self._d.bytes_per_vertex
+        return self._core.bytes_per_vertex
 
     @property
     def n_control_points(self) -> int:
-        return self._d.n_control_points
+        return self._core.n_control_points
 
     # --- frames ---------------------------------------------------------------
     def _P(self, control_points):
@@ -365,12 +373,12 @@ class Deformer:
             raise TypeError(f"rounds: expected an integer, got {type(rounds).__name__}")
         tv = None
         part_targets = None
-        if target_volume is not None and self._d.has_parts and np.ndim(target_volume) > 0:
+        if target_volume is not None and self._core.has_parts and np.ndim(target_volume) > 0:
             arr = np.asarray(target_volume)
             if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
                 raise TypeError(f"target_volume: expected numbers, got dtype {arr.dtype}")
-            if arr.shape != (self._d.n_parts,):
-                raise InvalidInputError(f"target_volume: expected one volume per part ({self._d.n_parts}), "
+            if arr.shape != (self._core.n_parts,):
+                raise InvalidInputError(f"target_volume: expected one volume per part ({self._core.n_parts}), "
                                         f"got shape {arr.shape}")
             part_targets = [float(v) for v in arr]
             if not np.isfinite(part_targets).all():
@@ -382,13 +390,13 @@ class Deformer:
             tv = float(target_volume)
             if not np.isfinite(tv):
                 raise InvalidInputError(f"target_volume: expected a finite number, got {target_volume}")
-        if preserve_volume and not allow_open and not self._d.is_closed:
+        if preserve_volume and not allow_open and not self._core.is_closed:
             # The core refuses this too; here the whole defect report (Mesh.check) says
             # what to repair, not just that the mesh is open.
             raise InvalidInputError(
                 "deform: the mesh does not bound a volume, so it cannot be preserved "
                 f"(pass allow_open=True to keep the cone volume from the lattice centre):\n{self.mesh.check()}")
-        if allow_open and preserve_volume and not self._d.is_closed:
+        if allow_open and preserve_volume and not self._core.is_closed:
             warnings.warn("deform: the mesh is not closed; the volume kept is that of the cone from the lattice "
                           "centre, which depends on where that centre is", stacklevel=2)
         # The one place a frame's options are named; every backend takes the same object.
@@ -399,11 +407,14 @@ class Deformer:
         if self._vk is not None:
             r = self._vk.deform(P, opts, normals=bool(normals))
         else:
-            r = self._d.deform(P, opts)
+            r = self._core.deform(P, opts)
         folds = _folds.check_frame(self, r["control_points"], on_fold, self._restore_last_frame)
         if self._vk is not None:
             self._last_frame = (np.array(P), opts)  # P may be a view of the caller's array
-        rest = self._d.rest_volume(True) if (self._d.is_closed or allow_open) else float("nan")
+        if not (self._core.is_closed or allow_open):
+            rest = float("nan")
+        else:
+            rest = self._vk.rest_volume(True) if self._vk is not None else self._core.rest_volume(True)
         return DeformResult(
             vertices=r["vertices"],
             control_points=r["control_points"].reshape(*shape, 3),

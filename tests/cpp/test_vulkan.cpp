@@ -323,6 +323,91 @@ TEST_P(VulkanP, SecondDeformerAndManyFrames) {
   EXPECT_LE(std::abs(a.deform(P, {}).volume - ra.volume), 1e-12 * std::abs(ra.volume));
 }
 
+// set_rest_vertices: the device embeds and sorts the moved vertices. Plain frames equal
+// those of a deformer built on the moved mesh bit for bit (the same operations on the
+// same positions); corrected ones match the moved CPU Deformer within the bounds above,
+// which hold for the device's embedding as tests/python/test_vulkan_motion.py derives
+// (the reals' error in tau, 4 2^-44 max|u| / min span width, is far below float32's).
+TEST_P(VulkanP, MovedRestEqualsFreshAndCpu) {
+  Scene s = sphere(3, 2, {8, 8, 8});
+  s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
+  Deformer cpu(s.V, s.F, s.L);
+  auto gpu_ptr = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer& gpu = *gpu_ptr;
+  const RowMatrixX3d P = edit(s.L);
+  CorrectionOptions plain;
+  plain.preserve_volume = false;
+  const DeformResult first = gpu.deform(P, {});
+  for (int step = 1; step <= 3; ++step) {
+    SCOPED_TRACE(step);
+    RowMatrixX3d X = s.V * (1.0 + 0.1 * step);
+    X.col(0).array() += 0.5 * step;  // x = 0.5 step + ...: the knots at integers are crossed
+    X.col(2).array() -= 0.3 * step;
+    gpu.set_rest_vertices(X);
+    cpu.set_rest_vertices(X);
+    EXPECT_EQ((gpu.rest_vertices() - X).cwiseAbs().maxCoeff(), 0.0);
+    // Before a frame the device vertices are the rest positions rounded to float32
+    // (relative to the origin): half an ulp, at most 2^-24 |x - o|.
+    const Vector3d o = gpu.origin();
+    EXPECT_LE((gpu.vertices() - X).cwiseAbs().maxCoeff(),
+              std::ldexp(1.0, -24) * (X.rowwise() - o.transpose()).cwiseAbs().maxCoeff());
+    vulkan::VulkanDeformer fresh(X, s.F, s.L, OutsidePolicy::Error, "", GetParam());
+    const DeformResult a = gpu.deform(P, plain), b = fresh.deform(P, plain);
+    EXPECT_EQ((a.vertices - b.vertices).cwiseAbs().maxCoeff(), 0.0);
+    const DeformResult g = gpu.deform(P, {}), c = cpu.deform(P, {});
+    expect_close(g, c, s.F, s.L, P);
+    expect_offsets_explain_vertices(cpu, g, c, s.L, P);
+    EXPECT_EQ(g.target_volume, gpu.rest_volume());
+    // The CPU twin follows the move (re-embedded on this first use).
+    EXPECT_EQ((gpu.cpu().ffd(P) - cpu.ffd(P)).cwiseAbs().maxCoeff(), 0.0);
+  }
+  // Back to the construction's positions: the construction's frame, bit for bit.
+  gpu.set_rest_vertices(s.V);
+  const DeformResult back = gpu.deform(P, {});
+  EXPECT_EQ((back.vertices - first.vertices).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(back.volume, first.volume);
+}
+
+TEST_P(VulkanP, MovedRestBadInput) {
+  Scene s = sphere(2, 3, {5, 5, 5});
+  auto gpu_ptr = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer& gpu = *gpu_ptr;
+  Deformer cpu(s.V, s.F, s.L);
+  const RowMatrixX3d P = edit(s.L);
+  const DeformResult before = gpu.deform(P, {});
+  RowMatrixX3d X = s.V;
+  X.col(0).array() += 0.5;  // the box is [-1.1, 1.2]: x > 1.2 for some of the unit sphere
+  Index n_out = 0, first = -1;
+  for (Index v = 0; v < X.rows(); ++v)
+    if (X(v, 0) > 1.2) {
+      ++n_out;
+      if (first < 0) first = v;
+    }
+  ASSERT_GT(n_out, 0);
+  std::string gpu_msg, cpu_msg;
+  try {
+    gpu.set_rest_vertices(X);
+  } catch (const InvalidInputError& e) {
+    gpu_msg = e.what();
+  }
+  try {
+    cpu.set_rest_vertices(X);
+  } catch (const InvalidInputError& e) {
+    cpu_msg = e.what();
+  }
+  EXPECT_EQ(gpu_msg, cpu_msg);
+  EXPECT_NE(gpu_msg.find(std::to_string(n_out) + " vertices lie outside"), std::string::npos) << gpu_msg;
+  EXPECT_NE(gpu_msg.find("the first is vertex " + std::to_string(first) + " at"), std::string::npos) << gpu_msg;
+  RowMatrixX3d nan = s.V;
+  nan(7, 1) = std::nan("");
+  EXPECT_THROW(gpu.set_rest_vertices(nan), InvalidInputError);
+  EXPECT_THROW(gpu.set_rest_vertices(s.V.topRows(s.V.rows() - 1)), InvalidInputError);
+  // Unchanged after the refusals.
+  EXPECT_EQ((gpu.rest_vertices() - s.V).cwiseAbs().maxCoeff(), 0.0);
+  const DeformResult again = gpu.deform(P, {});
+  EXPECT_EQ((again.vertices - before.vertices).cwiseAbs().maxCoeff(), 0.0);
+}
+
 // A volume correction found impossible on the device, after the frame ran, must not
 // leave that frame's vertices behind.
 TEST_P(VulkanP, FailedFrameKeepsLastGoodVertices) {

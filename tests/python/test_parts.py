@@ -239,17 +239,7 @@ def test_set_rest_vertices_bad_input():
     assert abs(e.deform(twisted(lat)).volume - V0) <= VOLUME_TOL * V0
 
 
-def test_set_rest_vertices_on_vulkan_is_honest():
-    if not vpffd._core.has_vulkan or not any(dv["suitable"] for dv in vpffd.vulkan_devices()):
-        pytest.skip("no Vulkan device")
-    mesh, _ = spheres(1)
-    lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), padding=0.3)
-    d = vpffd.Deformer(mesh, lat, backend="vulkan")
-    X = _moved(mesh.vertices, 1)
-    before = d.rest_vertices.copy()
-    with pytest.raises(vpffd.BackendUnavailableError, match="CPU backends only"):
-        d.set_rest_vertices(X)
-    assert np.array_equal(d.rest_vertices, before)  # nothing moved
+# set_rest_vertices on backend "vulkan": tests/python/test_vulkan_motion.py.
 
 
 def test_a_part_that_leaves_the_lattice_is_named():

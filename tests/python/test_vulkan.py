@@ -453,7 +453,7 @@ VALIDATION_LAYER = Path("/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_vali
 def test_validation_layer_reports_nothing(tmp_path):
     # Lavapipe forgives missing barriers and misused handles that a real GPU would
     # not: run frames of every kind (device steps, host offsets, plain, open mesh,
-    # constraints, failures, normals, both precisions) under the validation layer with
+    # constraints, failures, normals, moved rest meshes, both precisions) under the validation layer with
     # synchronization validation, which must report nothing.
     code = """
 import numpy as np, vpffd
@@ -475,6 +475,10 @@ for prec in ("float64", "float-float"):
     except vpffd.SolverError:
         pass
     d._vk.vertices()
+    d.set_rest_vertices(m.vertices * 0.9 + 0.05)  # the device embedding and cell sort again
+    d._vk.vertices()
+    d.deform(P, normals=True, constraints=cons)
+    d.deform(P, axes="zx", rounds=2)
     o = vpffd.Deformer(vpffd.Mesh(m.vertices, m.faces[keep]), lat, backend="vulkan", device=%r, gpu_precision=prec)
     o.deform(P, allow_open=True)
 print("done")

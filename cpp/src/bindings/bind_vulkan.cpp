@@ -69,7 +69,22 @@ void bind_vulkan(py::module_& m) {
       .def_property_readonly(
           "cpu", [](const VulkanDeformer& d) -> const Deformer& { return d.cpu(); },
           py::return_value_policy::reference_internal,
-          "The CPU Deformer of the same mesh (rest volume, ffd, jacobians, matrices).")
+          "The CPU Deformer of the current rest mesh (ffd, jacobians, matrices); after set_rest_vertices "
+          "the first access re-embeds it on the host.")
+      .def(
+          "set_rest_vertices",
+          [](VulkanDeformer& d, RefV X) {
+            py::gil_scoped_release release;
+            d.set_rest_vertices(X);
+          },
+          py::arg("vertices"),
+          "Moves the rest mesh (V, 3): embedded and sorted by cell on the device (see "
+          "vpffd::vulkan::VulkanDeformer::set_rest_vertices).")
+      .def_property_readonly(
+          "rest_vertices", [](const VulkanDeformer& d) { return RowMatrixX3d(d.rest_vertices()); },
+          "(V, 3) the current rest vertices (a copy).")
+      .def("rest_volume", &VulkanDeformer::rest_volume, py::arg("allow_open") = false,
+           "Enclosed volume of the current rest mesh (raises for an open mesh unless allow_open).")
       .def_property_readonly("device", [](const VulkanDeformer& d) { return device_to_python(d.device()); })
       .def_property_readonly("origin", &VulkanDeformer::origin)
       .def_property_readonly("scale", &VulkanDeformer::scale,

@@ -1,9 +1,10 @@
 #pragma once
 // The state of a VulkanDeformer (private to the backend): the device buffers, the
 // pipelines, the recorded frames and the command helpers every part of the backend
-// uses. The parts: setup.cpp (buffers, uploads, pipelines), constraint_block.cpp (the
-// point constraints' block), frame_recorder.cpp (a frame's command buffer) and
-// vulkan_deformer.cpp (the public API and a frame's host side).
+// uses. The parts: setup.cpp (buffers, uploads, pipelines), rest_embedding.cpp (the
+// rest positions and their embedding on the device, set_rest_vertices),
+// constraint_block.cpp (the point constraints' block), frame_recorder.cpp (a frame's
+// command buffer) and vulkan_deformer.cpp (the public API and a frame's host side).
 
 #include <algorithm>
 #include <chrono>
@@ -114,26 +115,39 @@ struct VulkanDeformer::Impl {
   Precision precision = Precision::Float64;
   bool ff = false;  // float-float reals on the device
 
-  Index nv = 0, nf = 0, N = 0, n_tiles = 0;
+  Index nv = 0, nf = 0, N = 0, n_tiles = 0;  // n_tiles: NTILE, an upper bound of the real tiles
   int KKK = 0;
   std::uint32_t g_vert = 1, g_face = 1, g_cp = 1, g_tile = 1;
   Vector3d origin;
   double scale = 1.0;  // device lengths = world lengths / scale (a power of two)
 
+  // The rest mesh (rest_embedding.cpp). Device vertex slot i is input vertex slot[i]
+  // for the deformer's life (the construction's cell order): faces and adjacency
+  // never change; a move re-embeds and re-sorts the slots on the device.
+  std::vector<std::int32_t> slot;
+  RowMatrixX3d rest;         // input order, world units
+  double rest_vol = 0;       // cone volume from the origin, as Deformer::rest_volume(true)
+  bool moved = false;        // set_rest_vertices ran: `cpu` may lag behind (cpu_stale)
+  bool cpu_stale = false;    // `cpu` is of an older rest mesh (synced_cpu() re-embeds it)
+  std::mutex cpu_mutex;
+  std::uint32_t sort_blocks = 1, sort_passes = 2;
+  VkCommandBuffer embed_cb = VK_NULL_HANDLE;  // upload of up_rest and the device embedding
+
   // The device buffers, by their binding numbers (shaders/layout.h).
   enum Buf {
     bP = VPFFD_B_P, bX = VPFFD_B_X, bF = VPFFD_B_F, bAdjPtr = VPFFD_B_ADJ_PTR, bAdj = VPFFD_B_ADJ,
     bSpan = VPFFD_B_SPAN, bTau = VPFFD_B_TAU, bPoly = VPFFD_B_POLY, bTiles = VPFFD_B_TILES,
-    bPartial = VPFFD_B_PARTIAL, bTileVol = VPFFD_B_TILE_VOL, bCombPtr = VPFFD_B_COMB_PTR, bComb = VPFFD_B_COMB,
+    bPartial = VPFFD_B_PARTIAL, bTileVol = VPFFD_B_TILE_VOL, bScan = VPFFD_B_SCAN, bRest = VPFFD_B_REST,
     bAlpha = VPFFD_B_ALPHA, bInvW = VPFFD_B_INV_W, bDelta = VPFFD_B_DELTA, bFrame = VPFFD_B_FRAME,
     bConsI = VPFFD_B_CONS_I, bStats = VPFFD_B_STATS, bRed = VPFFD_B_RED, bConsD = VPFFD_B_CONS_D,
     bWork = VPFFD_B_WORK, bNrm0 = VPFFD_B_NRM0, bNrm = VPFFD_B_NRM, bNrmTab = VPFFD_B_NRM_TAB,
-    kNumBuf = VPFFD_B_COUNT
+    bSort = VPFFD_B_SORT, kNumBuf = VPFFD_B_COUNT
   };
   static_assert(kNumBuf == int(kBindings), "one binding per device buffer");
   Buffer buf[kNumBuf];
   Buffer up_P, up_invw, up_frame, up_delta, up_cons_i, up_cons_d, rb_delta, rb_stats, rb_red, rb_X, rb_N;
   Buffer up_n0;  // staging of the rest normals, released after their upload
+  Buffer up_rest;  // staging of the rest positions (3V reals)
   bool normals_ready = false;  // the rest normals are on the device (a submission ran)
   // The vertices before the frame now running: a frame whose failure is only known
   // after it ran (see deform) puts them back, so a failed frame never becomes visible.
@@ -257,6 +271,8 @@ struct VulkanDeformer::Impl {
   void forget_recordings() {
     for (Recorded& r : recorded) vkFreeCommandBuffers(d, cmd_pool.get(), 1, &r.cb);
     recorded.clear();
+    if (embed_cb) vkFreeCommandBuffers(d, cmd_pool.get(), 1, &embed_cb);
+    embed_cb = VK_NULL_HANDLE;  // recorded again by the next embed_rest
   }
 
   // Device buffer i (and its upload buffer, when given) hold at least `bytes`.
@@ -270,6 +286,12 @@ struct VulkanDeformer::Impl {
 
   // ---- set-up ------------------------------------------------------------------
   void build(const std::string& selector, Precision wanted);
+  // rest_embedding.cpp
+  void stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where);
+  void record_embedding();
+  void embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where);
+  const Deformer& synced_cpu();
+  const CorrectionOptions& plan_options(const CorrectionOptions& opt, CorrectionOptions& storage) const;
   void create_pipelines(const std::array<std::int32_t, 11>& spec);
 
   // ---- frames (all with frame_mutex held) -----------------------------------------
@@ -300,9 +322,8 @@ struct VulkanDeformer::Impl {
   RowMatrixX3d unpack_vertices() const {
     const float* x = static_cast<const float*>(rb_X.mapped());
     RowMatrixX3d out(nv, 3);
-    const std::vector<std::int32_t>& order = cpu->processing_order();  // device vertex i is input order[i]
     for (Index i = 0; i < nv; ++i)
-      for (int a = 0; a < 3; ++a) out(order[i], a) = double(x[3 * i + a]) * scale + origin[a];
+      for (int a = 0; a < 3; ++a) out(slot[i], a) = double(x[3 * i + a]) * scale + origin[a];
     return out;
   }
 
@@ -310,9 +331,8 @@ struct VulkanDeformer::Impl {
   RowMatrixX3d unpack_normals() const {
     const float* x = static_cast<const float*>(rb_N.mapped());
     RowMatrixX3d out(nv, 3);
-    const std::vector<std::int32_t>& order = cpu->processing_order();
     for (Index i = 0; i < nv; ++i)
-      for (int a = 0; a < 3; ++a) out(order[i], a) = double(x[3 * i + a]);
+      for (int a = 0; a < 3; ++a) out(slot[i], a) = double(x[3 * i + a]);
     return out;
   }
 
@@ -325,18 +345,19 @@ struct VulkanDeformer::Impl {
     submit_and_wait();
   }
 
-  // The first frame with normals: their buffers, and the rest normals uploaded (into
-  // `cmd`, begun) as deformed_normals uses them (vertex_normals of the rest mesh), in
-  // the device order. Returns whether `cmd` got work.
+  // The first frame with normals after construction or a move: their buffers, and the
+  // rest normals uploaded (into `cmd`, begun) as deformed_normals uses them
+  // (vertex_normals of the rest mesh), in the device order. Returns whether `cmd` got work.
   bool prepare_normals() {
     if (normals_ready) return false;
     reserve(bNrm0, &up_n0, 12 * nv, "rest normals");
     reserve(bNrm, nullptr, 12 * nv, "normals");
-    const RowMatrixX3d n0 = vertex_normals(cpu->rest_vertices(), cpu->faces());
-    const std::vector<std::int32_t>& order = cpu->processing_order();
+    // After a move the buffers stay but their staging went with the first upload.
+    if (!up_n0.handle()) up_n0 = Buffer(*dev, 12 * nv, Buffer::Upload, "rest normals");
+    const RowMatrixX3d n0 = vertex_normals(rest, cpu->faces());
     float* p = static_cast<float*>(up_n0.mapped());
     for (Index i = 0; i < nv; ++i)
-      for (int a = 0; a < 3; ++a) p[3 * i + a] = static_cast<float>(n0(order[i], a));
+      for (int a = 0; a < 3; ++a) p[3 * i + a] = static_cast<float>(n0(slot[i], a));
     copy(up_n0, buf[bNrm0], 12 * nv);
     if (!rb_N.handle()) rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "normals (read-back)");
     return true;

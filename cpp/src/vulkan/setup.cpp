@@ -1,5 +1,7 @@
-// VulkanDeformer set-up: the device data of the CPU Deformer's embedding (cell order,
-// tiles, combine lists), uploaded once, and the pipelines of both precisions.
+// VulkanDeformer set-up: the device buffers, the mesh's faces and adjacency in the CPU
+// Deformer's processing order (the device's vertex slots), the basis tables, and the
+// pipelines of both precisions; the rest positions are then embedded on the device
+// (rest_embedding.cpp).
 
 #include <array>
 
@@ -30,11 +32,11 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   const Deformer& c = *cpu;
   const Lattice& L = c.lattice();
   const BasisTables& T = c.tables();
-  // The CPU Deformer's processing order (cells), faces and adjacency: a cell's
-  // vertices share their K^3 control points, which the tiles of coef.comp reduce in
-  // shared memory.
+  // The device's vertex slots, for the deformer's life: the CPU Deformer's processing
+  // order (by cell) of the first rest mesh, with its faces and adjacency. The device
+  // sorts the slots by cell again after every move (rest_embedding.cpp); at
+  // construction that stable sort leaves them in this order.
   const std::vector<std::int32_t>& order = c.processing_order();
-  const Embedding& E = c.processing_embedding();
   const RowMatrixX3i& Fs = c.processing_faces();
   const VertexFaces& adj = c.processing_adjacency();
   nv = c.n_vertices();
@@ -50,17 +52,6 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   if (nv * 3 >= (Index(1) << 31) || nf * 3 >= (Index(1) << 31))
     throw InvalidInputError("VulkanDeformer: the mesh is too large for 32-bit device indices");
 
-  std::vector<std::int32_t> span(3 * nv), cell(nv);
-  std::vector<float> tau(3 * nv), X0(3 * nv);
-  const RowMatrixX3d& V = c.rest_vertices();
-  for (Index i = 0; i < nv; ++i) {
-    cell[i] = vpffd::detail::cell_index(T, E, i);
-    for (int a = 0; a < 3; ++a) {
-      span[3 * i + a] = E.span[a][i] - T.poly[a].degree;
-      tau[3 * i + a] = static_cast<float>(E.tau[a][i]);
-      X0[3 * i + a] = static_cast<float>((V(order[i], a) - origin[a]) / scale);
-    }
-  }
   std::vector<float> poly;
   std::array<std::int32_t, 3> poly_off{};
   for (int a = 0; a < 3; ++a) {
@@ -80,40 +71,46 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   std::vector<double> nrm_tab_dev(nrm_tab.size());  // 8 bytes per real in either precision
   put_reals(nrm_tab_dev.data(), nrm_tab.data(), nrm_tab.size(), ff);
 
-  // Tiles and, per control point, the partials (tile * K^3 + local) that touch it.
-  std::vector<std::int32_t> tiles;
-  for (Index i = 0; i < nv;) {
-    Index j = i;
-    while (j < nv && j - i < kTile && cell[j] == cell[i]) ++j;
-    tiles.insert(tiles.end(), {static_cast<std::int32_t>(i), static_cast<std::int32_t>(j - i), cell[i], 0});
-    i = j;
-  }
-  n_tiles = static_cast<Index>(tiles.size() / 4);
-  if (n_tiles * KKK >= (Index(1) << 31))
-    throw InvalidInputError("VulkanDeformer: the mesh is too large for 32-bit device indices");
-  std::vector<std::int32_t> comb_ptr(N + 1, 0), comb;
+  // Tiles: a cell with c vertices has ceil(c / 64) <= c / 64 + 1 of them, and at most
+  // min(V, cells) cells have vertices: whatever the rest positions, NTILE below is
+  // enough, so it stays a specialization constant and moves need no new pipelines.
   {
-    auto each = [&](auto&& f) {
-      for (Index t = 0; t < n_tiles; ++t) {
-        const Index base = tiles[4 * t + 2];
-        int o = 0;
-        for (int i = 0; i < T.order[0]; ++i)
-          for (int j = 0; j < T.order[1]; ++j)
-            for (int k = 0; k < T.order[2]; ++k, ++o)
-              f(base + (Index(i) * dims[1] + j) * dims[2] + k, static_cast<std::int32_t>(t * KKK + o));
-      }
-    };
-    each([&](Index cp, std::int32_t) { ++comb_ptr[cp + 1]; });
-    for (Index k = 0; k < N; ++k) comb_ptr[k + 1] += comb_ptr[k];
-    comb.resize(comb_ptr[N]);
-    std::vector<std::int32_t> fill(comb_ptr.begin(), comb_ptr.end() - 1);
-    each([&](Index cp, std::int32_t idx) { comb[fill[cp]++] = idx; });
+    const Index cells = Index(dims[0] - T.order[0] + 1) * (dims[1] - T.order[1] + 1) * (dims[2] - T.order[2] + 1);
+    n_tiles = (nv + kTile - 1) / kTile + std::min(nv, cells);
   }
+  if (n_tiles * KKK >= (Index(1) << 31) || 4 * nv + 2 * N >= (Index(1) << 31))
+    throw InvalidInputError("VulkanDeformer: the mesh is too large for 32-bit device indices");
+  // The cell sort: keys (first control point indices) below N, 8 bits per pass, an
+  // even number of passes so that the sorted pairs end in the first array.
+  {
+    int bits = 1;
+    while ((Index(1) << bits) < N) ++bits;
+    sort_passes = static_cast<std::uint32_t>(2 * ((bits + 15) / 16));
+    sort_blocks = static_cast<std::uint32_t>((nv + VPFFD_SORT_BLOCK - 1) / VPFFD_SORT_BLOCK);
+    if (sort_blocks > 65535)
+      throw InvalidInputError("VulkanDeformer: the mesh is too large for the device cell sort (over 67M vertices)");
+  }
+  // The embedding table after the rest positions (layout.h EM_*): u = u0 + y du per
+  // axis for y = (x - origin) / scale, then the knots.
+  std::vector<double> em(EM_KNOTS);
+  for (int a = 0; a < 3; ++a) {
+    const double lo = L.domain_lo(a), hi = L.domain_hi(a), k = (hi - lo) / (L.box_max[a] - L.box_min[a]);
+    em[EM_U0 + a] = lo + (origin[a] - L.box_min[a]) * k;
+    em[EM_DU + a] = scale * k;
+  }
+  for (int a = 0; a < 3; ++a) {
+    VPFFD_CHECK(L.knots[a].size() == size_t(dims[a] + T.order[a]), "VulkanDeformer: knot vector ", a, " has ",
+                L.knots[a].size(), " entries, expected ", dims[a] + T.order[a]);
+    em.insert(em.end(), L.knots[a].begin(), L.knots[a].end());
+  }
+  std::vector<double> em_dev(em.size());
+  put_reals(em_dev.data(), em.data(), em.size(), ff);
 
   g_vert = groups_for(nv, kMaxGroups);
   g_face = groups_for(nf, kMaxGroups);
   g_cp = groups_for(N, 256);
   g_tile = static_cast<std::uint32_t>(std::min<Index>(n_tiles, 65535));
+  const size_t scan_size = std::max<size_t>(size_t(VPFFD_SORT_DIGITS) * sort_blocks, size_t(N) + 1);
 
   using B = detail::Buffer;
   auto mk = [&](Buf i, size_t bytes, const char* what) { buf[i] = B(*dev, bytes, B::DeviceLocal, what); };
@@ -123,14 +120,16 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   mk(bF, 12 * nf, "faces");
   mk(bAdjPtr, 4 * adj.indptr.size(), "adjacency");
   mk(bAdj, 4 * adj.faces.size(), "adjacency");
-  mk(bSpan, 4 * span.size(), "spans");
-  mk(bTau, 4 * tau.size(), "parameters");
+  mk(bSpan, 12 * nv, "spans");
+  mk(bTau, 12 * nv, "parameters");
   mk(bPoly, 4 * poly.size(), "basis table");
-  mk(bTiles, 4 * tiles.size(), "tiles");
+  mk(bTiles, 16 * n_tiles, "tiles");
   mk(bPartial, 8 * size_t(n_tiles) * KKK, "tile partials");
   mk(bTileVol, 8 * n_tiles, "tile volumes");
-  mk(bCombPtr, 4 * comb_ptr.size(), "combine lists");
-  mk(bComb, 4 * comb.size(), "combine lists");
+  mk(bScan, 4 * scan_size, "cell sort counts");
+  mk(bRest, 8 * (3 * nv + em.size()), "rest positions");
+  mk(bSort, 4 * (4 * nv + 2 * N), "cell sort");
+  up_rest = B(*dev, 24 * nv, B::Upload, "rest positions (upload)");
   mk(bAlpha, 8 * N, "coefficients");
   mk(bInvW, 8 * N, "inverse weights");
   mk(bDelta, 32 * N, "offsets");
@@ -185,17 +184,15 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
     std::memcpy(staging.back().mapped(), data, bytes);
     copy(staging.back(), buf[i], bytes);
   };
-  put(bX, X0.data(), 4 * X0.size());
   put(bF, Fs.data(), 12 * size_t(nf));
   put(bAdjPtr, adj.indptr.data(), 4 * adj.indptr.size());
   put(bAdj, adj.faces.data(), 4 * adj.faces.size());
-  put(bSpan, span.data(), 4 * span.size());
-  put(bTau, tau.data(), 4 * tau.size());
   put(bPoly, poly.data(), 4 * poly.size());
   put(bNrmTab, nrm_tab_dev.data(), 8 * nrm_tab_dev.size());
-  put(bTiles, tiles.data(), 4 * tiles.size());
-  put(bCombPtr, comb_ptr.data(), 4 * comb_ptr.size());
-  put(bComb, comb.data(), 4 * comb.size());
+  // The table goes behind the rest positions (their place is filled per move).
+  staging.emplace_back(*dev, 8 * em_dev.size(), B::Upload, "staging");
+  std::memcpy(staging.back().mapped(), em_dev.data(), 8 * em_dev.size());
+  copy(cmd, staging.back(), buf[bRest], 8 * em_dev.size(), 0, 24 * nv);
   submit_and_wait();
 
   const std::array<std::int32_t, 11> spec = {T.order[0], T.order[1], T.order[2],
@@ -203,6 +200,12 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
                                               static_cast<std::int32_t>(nv), static_cast<std::int32_t>(nf),
                                               static_cast<std::int32_t>(n_tiles), poly_off[1], poly_off[2]};
   create_pipelines(spec);
+
+  // The construction's rest mesh goes through the same device embedding as every
+  // move: one code path, so the static and moved frames cannot drift apart.
+  slot = order;
+  record_embedding();
+  embed_rest(c.rest_vertices(), "VulkanDeformer");
 
   // No constraints until a frame has some: every frame's solve reads the block.
   begin();

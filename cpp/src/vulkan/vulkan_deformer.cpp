@@ -1,10 +1,11 @@
 // VulkanDeformer: one frame of volume-preserving FFD as one queue submission.
 //
-// Device data (all in the device's vertex order, vertices sorted by lattice cell):
+// Device data (all in the device's vertex slot order, the construction's cell order):
 //   X (3V float, (positions - origin) / scale), F (3F int), vertex-face adjacency,
 //   per vertex the first control point index and the local parameter per axis,
-//   the per-span power-form basis table, the tiles (runs of <= 64 vertices of one
-//   cell) and, per control point, the list of tile partials that touch it.
+//   the per-span power-form basis table, the slots sorted by cell and the tiles (runs
+//   of <= 64 sorted slots of one cell), computed on the device from the rest positions
+//   at construction and after every set_rest_vertices (rest_embedding.cpp).
 // A frame runs: upload copies -> FFD -> [volume] -> per axis step [coefficients ->
 // combine -> solve (offsets included) -> vertex update] -> volume -> [normals of the
 // corrected control points, when asked] -> copies of the offsets, the step results,
@@ -51,7 +52,7 @@ VulkanDeformer::VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Ei
 
 VulkanDeformer::~VulkanDeformer() = default;
 
-const Deformer& VulkanDeformer::cpu() const { return *impl_->cpu; }
+const Deformer& VulkanDeformer::cpu() const { return impl_->synced_cpu(); }
 const DeviceInfo& VulkanDeformer::device() const { return impl_->dev->info; }
 Precision VulkanDeformer::precision() const { return impl_->precision; }
 FrameTimings VulkanDeformer::last_timings() const {
@@ -66,7 +67,7 @@ std::uint64_t VulkanDeformer::vertex_buffer_handle() const {
 std::uint64_t VulkanDeformer::index_buffer_handle() const {
   return reinterpret_cast<std::uint64_t>(impl_->buf[Impl::bF].handle());
 }
-const std::vector<std::int32_t>& VulkanDeformer::vertex_order() const { return impl_->cpu->processing_order(); }
+const std::vector<std::int32_t>& VulkanDeformer::vertex_order() const { return impl_->slot; }
 
 RowMatrixX3d VulkanDeformer::vertices() const {
   std::lock_guard<std::mutex> lock(impl_->frame_mutex);
@@ -84,12 +85,17 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   static const char axis_name[3] = {'x', 'y', 'z'};
   const auto t_start = std::chrono::steady_clock::now();
   Impl& m = *this;
-  const Deformer& cpu = *m.cpu;
+  const Deformer& cpu = *m.cpu;  // of the construction's rest mesh after a move: see plan_options
   const Index N = m.N;
+  CorrectionOptions moved_opt;
+  const CorrectionOptions& po = m.plan_options(opt, moved_opt);
 
   // --- options: the CPU backend's own checks (the free control points and the
   // method included), so both refuse the same input ----------------------------------
-  const FramePlan pl = cpu.plan(P, opt);
+  FramePlan pl = cpu.plan(P, po);
+  // The default target is the rest volume this deformer computed (rest_embedding.cpp):
+  // the same number at construction and after any move.
+  if (std::isnan(opt.target_volume)) pl.target = m.rest_vol;
   const bool correcting = pl.correcting;
   const bool measure = pl.measure;
   const double target = pl.target;
@@ -117,7 +123,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     // Constraints alone do not depend on the mesh: the CPU backend's own steps, on the
     // host (same offsets, same errors); the device applies each axis's total once.
     shape.mode = Shape::HostOffsets;
-    constraint_steps(pl, P, opt, res);
+    constraint_steps(pl, P, po, res);
     shape.axes = opt.axes;
   }
 
@@ -132,7 +138,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
       detail::check(vkEndCommandBuffer(m.cmd), "vkEndCommandBuffer");
       m.submit_and_wait(&m.cmd, 1);  // the block is consistent with `cons` again
       lock.unlock();
-      cpu.deform(P, opt);
+      m.synced_cpu().deform(P, opt);
       throw dependent_rows_error(axis_name[opt.axes[0]], true, std::numeric_limits<double>::quiet_NaN());
     }
   }
@@ -223,7 +229,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
         // The volume row depends on the constraints: the CPU backend gives its exact
         // message (its condition number); should its test pass, ours still stands.
         lock.unlock();
-        cpu.deform(P, opt);
+        m.synced_cpu().deform(P, opt);
         throw dependent_rows_error(ax, true, cond < 0 ? std::numeric_limits<double>::infinity() : cond);
       }
       throw DeviceError(vpffd::detail::concat("vulkan: the solve of step ", step, " reported status ", status));

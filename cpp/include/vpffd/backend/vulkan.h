@@ -5,7 +5,9 @@
 /// A VulkanDeformer runs a whole frame on one device: plain FFD, per axis step
 /// (`rounds` times through the axes) the volume coefficients, the closed-form offsets
 /// and the update of the vertices, and the volume measurements, in a single queue
-/// submission. Mesh data and per-vertex basis data are uploaded once; the frame's
+/// submission. Mesh data are uploaded once, and the rest positions, from which the
+/// device computes the per-vertex basis data (span, local parameter) and the sort of
+/// the vertices by lattice cell, at construction and per set_rest_vertices; the frame's
 /// command buffer is recorded once per options shape (axes, rounds, volume or not)
 /// and reused; a frame uploads the control points and a few scalars (the point
 /// constraints' block only when the constraint sources or the weights change) and
@@ -106,7 +108,7 @@ struct FrameTimings {
 /// arithmetic differs (see the file comment).
 class VulkanDeformer {
  public:
-  /// Embeds the mesh (on the host, once) and uploads it.
+  /// Uploads the mesh and embeds its vertices on the device (as set_rest_vertices).
   /// @param[in] V       #V x 3 rest vertices
   /// @param[in] F       #F x 3 triangles
   /// @param[in] device  "" (the first suitable device: hardware before software),
@@ -140,10 +142,31 @@ class VulkanDeformer {
                       bool read_vertices = true, RowMatrixX3d* normals = nullptr);
 
   /// #V x 3 vertices of the last frame that succeeded, in the input order (the rest
-  /// mesh before any frame).
+  /// mesh before any frame, and after set_rest_vertices until the next frame).
   RowMatrixX3d vertices() const;
 
-  /// The CPU Deformer of the same mesh: rest volume, edges, embedding, jacobians...
+  /// Moves the rest mesh to X (same faces): the next frame deforms X as a
+  /// VulkanDeformer built on it would (embedding, cell order of the tiles, rest
+  /// volume), within the backend's float32 tolerance. Only X goes to the device; the
+  /// embedding (span and local parameter per vertex) and the sort of the vertices by
+  /// lattice cell run there, with the CPU's rules (lattice/embed.h). The rest volume is
+  /// computed on the host in float64 (O(F)). The vertex order of the device buffers
+  /// (vertex_order()) and the faces do not change. Not to be called while a frame runs.
+  /// @param[in] X  #V x 3 new rest vertices, world units
+  /// @throws InvalidInputError for a wrong shape, non-finite coordinates, vertices too far
+  ///         from the lattice, or outside its box (unless built with
+  ///         OutsidePolicy::Extrapolate), with the CPU's message (how many, the first);
+  ///         the deformer is unchanged then. DeviceError when a Vulkan call fails.
+  void set_rest_vertices(const Eigen::Ref<const RowMatrixX3d>& X);
+  /// The current rest vertices (#V x 3, input order).
+  const RowMatrixX3d& rest_vertices() const;
+  /// Enclosed volume of the current rest mesh, as Deformer::rest_volume.
+  /// @throws InvalidInputError for an open mesh, unless `allow_open`
+  double rest_volume(bool allow_open = false) const;
+
+  /// The CPU Deformer of the current rest mesh: edges, embedding, jacobians,
+  /// matrices... After set_rest_vertices it is re-embedded on the host on the first
+  /// call (frames never need it), so call it outside the frame loop.
   const Deformer& cpu() const;
   const DeviceInfo& device() const;
   /// The precision the device sums in: Float64 or FloatFloat (never Auto).

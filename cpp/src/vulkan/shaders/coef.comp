@@ -4,11 +4,14 @@
 // contribution sum_v w_v B_c(u_v) to its K^3 control points, and its share
 // sum_v x_v w_v of the volume.
 //
-// Why tiles: the vertices were sorted by lattice cell once, and a tile holds up to
-// 64 vertices of one cell, so all of them touch the same K^3 control points. The
-// workgroup reduces them in shared memory (each invocation owns a control point and
-// sums the tile's vertices in a fixed order) and writes one partial row per tile;
-// `combine` then adds the rows of each control point in tile order. The result is
+// Why tiles: the vertex slots are sorted by lattice cell on the device whenever the
+// rest positions change (embed, radix, scan, tiles), and a tile holds up to 64 of them of
+// one cell (consecutive in the sorted array), so all of them touch the same K^3
+// control points. The workgroup reduces them in shared memory (each invocation owns a
+// control point and sums the tile's vertices in a fixed order) and writes one partial
+// row per tile; `combine` then adds the rows of each control point in tile order.
+// Tiles past the real ones (NTILE is an upper bound) are empty: only their volume (0)
+// is written, which solve.comp sums. The result is
 // the same on every run on a device (tested), which float atomics would not give
 // (and float64 atomics are rare); devices may still differ in how they fuse the
 // float32 basis arithmetic.
@@ -26,9 +29,13 @@ void main() {
   const uint l = gl_LocalInvocationID.x;
   for (uint t = gl_WorkGroupID.x; t < uint(NTILE); t += gl_NumWorkGroups.x) {
     const ivec4 tile = tiles[t];
+    if (tile.y == 0) {  // the same for the whole workgroup
+      if (l == 0) tile_vol[t] = r_zero();
+      continue;
+    }
     real w = r_zero(), vol = r_zero();
     if (int(l) < tile.y) {
-      const uint v = uint(tile.x) + l;
+      const uint v = uint(sorted[2 * (tile.x + int(l)) + 1]);  // the slot at that sorted position
       if ((pc.flags & 4) == 0) {
         for (int p = adj_ptr[v]; p < adj_ptr[v + 1]; ++p) w = r_add(w, face_normal(adj_face[p], a));
       } else {

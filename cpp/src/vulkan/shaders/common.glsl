@@ -49,14 +49,22 @@ layout(std430, set = 0, binding = VPFFD_B_X) buffer BufX { float X[]; };        
 layout(std430, set = 0, binding = VPFFD_B_F) readonly buffer BufF { int F[]; };         // 3F, sorted numbering
 layout(std430, set = 0, binding = VPFFD_B_ADJ_PTR) readonly buffer BufAdjPtr { int adj_ptr[]; };
 layout(std430, set = 0, binding = VPFFD_B_ADJ) readonly buffer BufAdj { int adj_face[]; };
-layout(std430, set = 0, binding = VPFFD_B_SPAN) readonly buffer BufSpan { int span[]; };   // 3V: first control index per axis
-layout(std430, set = 0, binding = VPFFD_B_TAU) readonly buffer BufTau { float tau[]; };   // 3V
+// Written by embed.comp, read by every per-vertex pass.
+layout(std430, set = 0, binding = VPFFD_B_SPAN) buffer BufSpan { int span[]; };   // 3V: first control index per axis
+layout(std430, set = 0, binding = VPFFD_B_TAU) buffer BufTau { float tau[]; };   // 3V
 layout(std430, set = 0, binding = VPFFD_B_POLY) readonly buffer BufPoly { float poly[]; };
-layout(std430, set = 0, binding = VPFFD_B_TILES) readonly buffer BufTile { ivec4 tiles[]; };  // start, count, first cp, -
+layout(std430, set = 0, binding = VPFFD_B_TILES) buffer BufTile { ivec4 tiles[]; };  // start, count, cell, - (tiles.comp)
 layout(std430, set = 0, binding = VPFFD_B_PARTIAL) buffer BufPart { real partial[]; };       // NTILE x KKK
 layout(std430, set = 0, binding = VPFFD_B_TILE_VOL) buffer BufTileVol { real tile_vol[]; };  // NTILE
-layout(std430, set = 0, binding = VPFFD_B_COMB_PTR) readonly buffer BufCombPtr { int comb_ptr[]; };
-layout(std430, set = 0, binding = VPFFD_B_COMB) readonly buffer BufComb { int comb_idx[]; };
+// The device embedding (embed.comp, radix.comp, tiles.comp): the digit counts of the
+// cell sort, then per cell (= its first control point index) its first tile, N + 1 entries.
+layout(std430, set = 0, binding = VPFFD_B_SCAN) buffer BufScan { uint scan_buf[]; };
+// Rest positions (3V, device units) and the embedding table (EM_*).
+layout(std430, set = 0, binding = VPFFD_B_REST) readonly buffer BufRest { real rest[]; };
+// Two arrays of (cell, slot) pairs, 2V ints each (the sorted one is the first), then
+// per cell the range [start, end) of its vertices in the sorted array (2N ints).
+layout(std430, set = 0, binding = VPFFD_B_SORT) buffer BufSort { int sorted[]; };
+const int CELL_RANGE = 4 * NVERT;
 layout(std430, set = 0, binding = VPFFD_B_ALPHA) buffer BufAlpha { real alpha[]; };       // N
 layout(std430, set = 0, binding = VPFFD_B_INV_W) readonly buffer BufInvW { real inv_w[]; };  // N, 0 = fixed
 layout(std430, set = 0, binding = VPFFD_B_DELTA) buffer BufDelta { real delta[]; };  // 4N: 3 accumulated axes, this step's

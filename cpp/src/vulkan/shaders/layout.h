@@ -15,11 +15,11 @@
 #define VPFFD_B_SPAN 5        // 3V int: first control index per axis
 #define VPFFD_B_TAU 6         // 3V float: local parameters
 #define VPFFD_B_POLY 7        // float: per-span power forms of the three axes
-#define VPFFD_B_TILES 8       // ivec4 per tile: start, count, first control point, -
+#define VPFFD_B_TILES 8       // ivec4 per tile: start (sorted position), count, cell (first control point), -
 #define VPFFD_B_PARTIAL 9     // real, NTILE x KKK: tile partials of the coefficients
 #define VPFFD_B_TILE_VOL 10   // real, NTILE
-#define VPFFD_B_COMB_PTR 11   // per control point, its tile partials (CSR)
-#define VPFFD_B_COMB 12
+#define VPFFD_B_SCAN 11       // uint: radix-sort digit counts, then per cell its first tile (N + 1)
+#define VPFFD_B_REST 12       // real: 3V rest positions (scale units, from the origin), then the embedding table
 #define VPFFD_B_ALPHA 13      // real, N: coefficients
 #define VPFFD_B_INV_W 14      // real, N: inverse weights, 0 = fixed
 #define VPFFD_B_DELTA 15      // real, 4N: three accumulated axes, this step's
@@ -32,12 +32,15 @@
 #define VPFFD_B_NRM0 22       // 3V float: rest vertex normals
 #define VPFFD_B_NRM 23        // 3V float: deformed vertex normals
 #define VPFFD_B_NRM_TAB 24    // real: power forms and derivative scales for normals.comp
-#define VPFFD_B_COUNT 25
+#define VPFFD_B_SORT 25       // int: two (cell, slot) arrays of 2V (the sort's ping-pong), then (start, end) per cell
+#define VPFFD_B_COUNT 26
 
 // Workgroup sizes.
 #define VPFFD_TILE 64         // vertices per tile = coef.comp's workgroup size
 #define VPFFD_GROUP 256       // every other pass
 #define VPFFD_RED_STRIDE 1024 // the most workgroups of a grid-stride pass (fixed reduction shape)
+#define VPFFD_SORT_BLOCK 1024 // vertices per workgroup of the radix sort's count and scatter passes
+#define VPFFD_SORT_DIGITS 256 // radix of the sort: 8 bits per pass (= VPFFD_GROUP: one invocation per digit)
 
 #ifdef __cplusplus
 namespace vpffd::vulkan {
@@ -56,6 +59,13 @@ const int CI_IDX = 2;         // offset of their entries: s * KKK + local index 
 const int CI_G = 3;           // offset in cons_d of G_cc = R W^-1 R^T (nc x nc)
 const int CI_H = 4;           // offset in cons_d of G_cc^-1 (nc x nc)
 const int CI_BASE = 8;        // nc first control point indices; cons_d starts with nc x KKK row values
+// rest[]: reals after the 3V positions: the parameter map u = EM_U0[a] + y EM_DU[a] per
+// axis (y in device units), then the knot vectors of the three axes (dims + order each).
+const int EM_U0 = 0;
+const int EM_DU = 3;
+const int EM_KNOTS = 6;
+// Push flags of embed.comp: clamp the parameter into the domain (outside = error).
+const int EM_CLAMP = 1;
 // stats[]: reals, per step: volume_before, share, sum_squares, max_offset, status, detail.
 const int ST_STEP = 0;
 const int ST_STEP_STRIDE = 8;

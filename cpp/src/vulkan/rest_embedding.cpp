@@ -1,0 +1,185 @@
+// Rest positions on the device: VulkanDeformer::set_rest_vertices, and the embedding
+// that construction shares with it (the two-phase evaluation of paper 001, §3: the
+// basis data of every vertex is computed on the device from its rest position, so an
+// object can travel through the lattice frame by frame).
+//
+// Design:
+// - Device vertex slots keep the construction's order (the CPU Deformer's cell order of
+//   the first rest mesh): faces, adjacency and every per-slot buffer keep their layout,
+//   and a move changes only the rest positions, span/tau per slot and the cell tables.
+// - Per move the host uploads X only, converted to the device's reals ((x - origin) /
+//   scale, float64 or float-float: the embedding then starts from the positions' own
+//   precision, not float32's). That conversion reads every coordinate anyway, so the
+//   finiteness, too-far and outside tests ride along, with the CPU's rule in double:
+//   exactly the vertices Deformer::set_rest_vertices refuses are refused (no device
+//   counter, no read-back), and in that error case the CPU's embed() runs to give its
+//   exact message (how many, the first one). The rest volume is computed on the host
+//   in float64 (signed_volume, O(F), no embedding): the very number a CPU Deformer of
+//   the moved mesh keeps, so preserve_volume aims at the same target on both
+//   backends; a device sum in reals would round differently and need a read-back.
+// - On the device, one submission (embed_cb, recorded once): embed.comp (span, tau and
+//   cell per slot; X = the rest positions), an LSD radix sort of the (cell, slot) pairs
+//   (radix.comp with scan.comp: 8 bits per pass, integer work only and
+//   stable, so the order never depends on scheduling: (cell, slot) ascending), then
+//   tiles.comp: each cell's range, its tile count, their scan, the tiles. coef.comp
+//   reads a tile's slots through the sorted array; combine.comp adds, per control
+//   point, the partials of the tiles of its <= K^3 cells in tile order. The number of
+//   tiles varies with the positions; NTILE is its upper bound ceil(V/64) + min(V, cells),
+//   so the pipelines never change (the extra tiles are empty).
+// - Point constraints at vertices take their basis at the vertex's current rest
+//   position: after a move frames pass them to the CPU's plan as point constraints at
+//   that position (the plan embeds those few points on the host). The default volume
+//   target is rest_vol, at construction too (the same code, so moving back to the
+//   construction's positions gives its frames bit for bit).
+// - The CPU Deformer `cpu` (edges, ffd, jacobians, matrices, error messages) follows a
+//   move lazily: frames do not need it, and synced_cpu() re-embeds it on the host on
+//   its first use after a move.
+
+#include "deformer_impl.h"
+#include "vpffd/lattice/embed.h"
+#include "vpffd/mesh/validate.h"
+#include "vpffd/mesh/volume.h"
+
+namespace vpffd::vulkan {
+
+void VulkanDeformer::Impl::record_embedding() {
+  VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  cai.commandPool = cmd_pool.get();
+  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cai.commandBufferCount = 1;
+  detail::check(vkAllocateCommandBuffers(d, &cai, &embed_cb), "vkAllocateCommandBuffers");
+  const VkCommandBuffer cb = embed_cb;
+  begin(cb, false);
+  barrier(cb);
+  copy(cb, up_rest, buf[bRest], 24 * nv);
+  vkCmdFillBuffer(cb, buf[bSort].handle(), 16 * nv, 8 * N, 0);  // cells without vertices: empty ranges
+  vkCmdFillBuffer(cb, buf[bTiles].handle(), 0, VK_WHOLE_SIZE, 0);  // tiles past the real ones: empty
+  barrier(cb);
+  vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
+  Push pc;
+  pc.flags = cpu->outside_policy() == OutsidePolicy::Error ? EM_CLAMP : 0;
+  dispatch(cb, kEmbed, g_vert, pc);
+  for (std::uint32_t pass = 0; pass < sort_passes; ++pass) {
+    Push s;
+    s.step = static_cast<std::int32_t>(pass);
+    s.count = static_cast<std::int32_t>(sort_blocks);
+    s.flags = 0;  // count
+    dispatch(cb, kRadix, sort_blocks, s);
+    Push sc;
+    sc.count = static_cast<std::int32_t>(VPFFD_SORT_DIGITS * sort_blocks);
+    dispatch(cb, kScan, 1, sc);
+    s.flags = 1;  // scatter
+    dispatch(cb, kRadix, sort_blocks, s);
+  }
+  Push t;
+  t.flags = 0;
+  dispatch(cb, kTiles, g_vert, t);
+  t.flags = 1;
+  dispatch(cb, kTiles, g_cp, t);
+  Push sc;
+  sc.count = static_cast<std::int32_t>(N + 1);
+  dispatch(cb, kScan, 1, sc);
+  t.flags = 2;
+  dispatch(cb, kTiles, g_cp, t);
+  detail::check(vkEndCommandBuffer(cb), "vkEndCommandBuffer");
+}
+
+void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) {
+  VPFFD_CHECK(X.rows() == nv, where, ": ", X.rows(), " vertices, the mesh has ", nv,
+              " (the faces stay; give every vertex a new position)");
+  const Lattice& L = cpu->lattice();
+  const bool refuse_outside = cpu->outside_policy() == OutsidePolicy::Error;
+  // embed()'s tests, in the same double arithmetic: its tolerance for points on the
+  // box's faces, and its limit of 1000 box extents.
+  Vector3d tol, lo, hi;
+  for (int a = 0; a < 3; ++a) {
+    tol[a] = 1e-12 * (L.box_max[a] - L.box_min[a]);
+    const double w = L.domain_hi(a) - L.domain_lo(a);
+    lo[a] = L.domain_lo(a) - 1e3 * w;
+    hi[a] = L.domain_hi(a) + 1e3 * w;
+  }
+  bool bad = false;
+  double* y64 = static_cast<double*>(up_rest.mapped());
+  float* yff = static_cast<float*>(up_rest.mapped());
+  for (Index i = 0; i < nv; ++i) {
+    const Vector3d x = X.row(slot[i]).transpose();
+    const Vector3d u = parameter_of(L, x);
+    for (int a = 0; a < 3; ++a) {
+      bad |= !std::isfinite(x[a]) || !(u[a] >= lo[a] && u[a] <= hi[a]);
+      if (refuse_outside) bad |= x[a] < L.box_min[a] - tol[a] || x[a] > L.box_max[a] + tol[a];
+      const double y = (x[a] - origin[a]) / scale;
+      if (ff) {
+        const float h = static_cast<float>(y);
+        yff[2 * (3 * i + a)] = h;
+        yff[2 * (3 * i + a) + 1] = static_cast<float>(y - double(h));
+      } else {
+        y64[3 * i + a] = y;
+      }
+    }
+  }
+  if (bad) {
+    // The CPU's own checks give the message (first vertex in the caller's order).
+    for (Index v = 0; v < nv; ++v)
+      VPFFD_CHECK(std::isfinite(X(v, 0)) && std::isfinite(X(v, 1)) && std::isfinite(X(v, 2)), where, ": vertex ", v,
+                  " has a non-finite coordinate (", X(v, 0), ", ", X(v, 1), ", ", X(v, 2), ")");
+    try {
+      embed(L, X, cpu->outside_policy());
+    } catch (const InvalidInputError& e) {
+      throw InvalidInputError(std::string(where) + ": " + e.what());
+    }
+    throw InvalidInputError(std::string(where) + ": a vertex lies outside the lattice box");  // not reached
+  }
+}
+
+void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) {
+  stage_rest(X, where);  // throws before anything changes
+  const double vol = signed_volume(X, cpu->faces(), origin);
+  VPFFD_CHECK(std::isfinite(vol), where, ": the mesh's enclosed volume overflows double precision (", vol,
+              "; coordinates up to ", X.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
+  if (!embed_cb) record_embedding();  // after a rebinding (forget_recordings)
+  submit_and_wait(&embed_cb, 1);
+  rest = X;
+  rest_vol = vol;
+  normals_ready = false;  // the rest normals are of the old positions
+}
+
+const Deformer& VulkanDeformer::Impl::synced_cpu() {
+  std::lock_guard<std::mutex> lock(cpu_mutex);
+  if (cpu_stale) {
+    cpu->set_rest_vertices(rest);
+    cpu_stale = false;
+  }
+  return *cpu;
+}
+
+const CorrectionOptions& VulkanDeformer::Impl::plan_options(const CorrectionOptions& opt,
+                                                            CorrectionOptions& storage) const {
+  if (!moved) return opt;
+  storage = opt;
+  for (PointConstraint& c : storage.constraints)
+    if (c.vertex >= 0 && c.vertex < nv) {
+      c.point = rest.row(c.vertex).transpose();
+      c.vertex = -1;
+    }
+  return storage;
+}
+
+// ---- public API ----------------------------------------------------------------
+
+void VulkanDeformer::set_rest_vertices(const Eigen::Ref<const RowMatrixX3d>& X) {
+  Impl& m = *impl_;
+  std::lock_guard<std::mutex> lock(m.frame_mutex);
+  m.embed_rest(X, "set_rest_vertices");
+  m.moved = true;
+  std::lock_guard<std::mutex> cpu_lock(m.cpu_mutex);
+  m.cpu_stale = true;
+}
+
+const RowMatrixX3d& VulkanDeformer::rest_vertices() const { return impl_->rest; }
+
+double VulkanDeformer::rest_volume(bool allow_open) const {
+  if (!allow_open) require_closed(impl_->cpu->edges(), "rest_volume");
+  return impl_->rest_vol;
+}
+
+}  // namespace vpffd::vulkan
