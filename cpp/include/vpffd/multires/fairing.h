@@ -96,12 +96,14 @@ inline double mean_edge_length(const Eigen::Ref<const RowMatrixX3d>& V, const Ei
 ///            (> 0, finite): ceil(smoothing) implicit steps of equal size, so an
 ///            integer is the number of unit steps (10 = ten steps of h = edge^2).
 /// @param threads  for the solver's products (the result does not depend on it)
+/// @param max_cg_iterations  CG iterations per step before the direct factorisation
+///            takes over (0: the factorisation from the start)
 /// @returns #V x 3 faired vertices (same connectivity as F); each step solved to
 ///          the relative residual kFairingTolerance
 /// @throws InvalidInputError for a bad mesh or smoothing; SolverError when the
 ///         factorisation fails (it cannot for a valid mesh: M + hK is SPD)
 inline RowMatrixX3d fair_mesh(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
-                              double smoothing, int threads = 0) {
+                              double smoothing, int threads = 0, int max_cg_iterations = kFairingMaxIterations) {
   validate_mesh(V, F, "fair_mesh");
   VPFFD_CHECK(std::isfinite(smoothing) && smoothing > 0, "fair_mesh: smoothing must be a positive number, got ",
               smoothing);
@@ -127,7 +129,8 @@ inline RowMatrixX3d fair_mesh(const Eigen::Ref<const RowMatrixX3d>& V, const Eig
       for (Index v = b; v < e; ++v) rhs.row(v) = mass[v] * X.row(v);
     });
     RowMatrixX3d next = X;  // the previous step: the warm start
-    if (!ldlt && pcg_solve3(A, rhs, next, kFairingTolerance, kFairingMaxIterations, threads).converged) {
+    if (!ldlt && max_cg_iterations > 0 &&
+        pcg_solve3(A, rhs, next, kFairingTolerance, max_cg_iterations, threads).converged) {
       X.swap(next);
     } else {
       if (!ldlt) {
