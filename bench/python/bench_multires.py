@@ -10,7 +10,9 @@ its figures are not a GPU's), median frame times of
   * plain FFD with exact deformed normals (positions + cof(J) n per vertex),
   * the multiresolution reconstruction (FFD and analytic Jacobian at the foot
     point, p' = S' + d N_S', approximate normal of eqs. 6-7),
-in million triangles per second, and the bytes per vertex each reads. On Vulkan the
+in million triangles per second, and the bytes per vertex each reads; the time of the
+decomposition itself (``vpffd.Multires``: fairing, foot points, coefficients) on 1
+and 2 threads. On Vulkan the
 three are one submission each (VulkanDeformer's plain frame, with its normals
 pass, and VulkanMultires), timed end to end on the host (upload, dispatch, read-back
 and reordering), with the device's own timestamps of the multiresolution frame
@@ -91,9 +93,11 @@ def speed_vulkan(name, mesh, mr, lat, P, repeats, selector):
 
 
 def speed(name, mesh, smoothing, shape, repeats):
-    t0 = time.perf_counter()
-    mr = vpffd.Multires(mesh, smoothing=smoothing)
-    t_dec = time.perf_counter() - t0
+    t_dec = {}
+    for threads in (1, 2):  # the decomposition's wall time, once per thread count
+        t0 = time.perf_counter()
+        mr = vpffd.Multires(mesh, smoothing=smoothing, threads=threads)
+        t_dec[threads] = time.perf_counter() - t0
     lat = vpffd.Lattice.around(mesh, shape=shape)
     P = np.ascontiguousarray(vpffd.twist(lat.control_points, 90).reshape(-1, 3))
     rows = []
@@ -171,7 +175,8 @@ def main():
                   f"{r[8]:.1f} | {r[9]:.1f} | {r[10]:.1f} | {r[11]:.1f} | {r[6] / r[5]:.2f} |", flush=True)
         if gpu_ms is not None:
             print(f"  ({name}: multiresolution frame on the device, its timestamps: {gpu_ms:.1f} ms)", flush=True)
-        print(f"  ({name}: decomposition {t_dec:.2f} s; {mr})", flush=True)
+        print(f"  ({name}: decomposition {t_dec[1]:.2f} s on 1 thread, {t_dec[2]:.2f} s on 2; load average "
+              f"{os.getloadavg()[0]:.2f}; {mr})", flush=True)
         if name == "dragon":
             acc_meshes.append((name, mesh))
     acc_meshes.insert(0, (f"bumpy ico{a.accuracy_size}", vpffd.shapes.bumpy_sphere(a.accuracy_size)))
