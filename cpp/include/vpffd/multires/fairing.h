@@ -19,14 +19,16 @@
 /// n^1.5 (about 60 entries per row at 40k vertices and growing): on a 2.6M-vertex
 /// mesh its factorisation took minutes where CG takes seconds, and CG's products
 /// run on every thread. Meshes with very uneven triangles (slivers next to large
-/// faces) condition worse; where CG has not converged after kFairingMaxIterations
-/// the step falls back to the factorisation (Eigen SimplicialLDLT), so the base is
+/// faces) condition worse: where the first step's convergence rate predicts more
+/// than kFairingMaxIterations, or CG has not converged after them, the steps are
+/// solved with the factorisation (Eigen SimplicialLDLT) instead, so the base is
 /// always the solution to the tolerance below.
 
 #include <cmath>
 #include <memory>
 #include <vector>
 
+#include <Eigen/Geometry>
 #include <Eigen/Sparse>
 
 #include "vpffd/core/check.h"
@@ -50,6 +52,12 @@ inline constexpr double kFairingTolerance = 1e-13;
 
 /// CG iterations per step before the direct factorisation takes over.
 inline constexpr int kFairingMaxIterations = 500;
+
+/// CG iterations of the first step after which its convergence rate decides between
+/// CG and the factorisation: a mesh that would need more than kFairingMaxIterations
+/// (a scan with slivers beside large faces: the dragon needs thousands) is factorised
+/// without spending them.
+inline constexpr int kFairingProbeIterations = 40;
 
 /// Cotangent stiffness matrix K (#V x #V, positive semi-definite, rows sum to 0)
 /// and lumped masses (one third of the incident triangle areas per vertex).
@@ -124,23 +132,38 @@ inline RowMatrixX3d fair_mesh(const Eigen::Ref<const RowMatrixX3d>& V, const Eig
   for (Index v = 0; v < V.rows(); ++v) A.coeffRef(v, v) += mass[v];
   RowMatrixX3d X = V, rhs(V.rows(), 3);
   std::unique_ptr<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>> ldlt;
+  bool use_cg = max_cg_iterations > 0;
   for (int s = 0; s < steps; ++s) {
     parallel_range(V.rows(), threads, [&](Index b, Index e) {
       for (Index v = b; v < e; ++v) rhs.row(v) = mass[v] * X.row(v);
     });
-    RowMatrixX3d next = X;  // the previous step: the warm start
-    if (!ldlt && max_cg_iterations > 0 &&
-        pcg_solve3(A, rhs, next, kFairingTolerance, max_cg_iterations, threads).converged) {
-      X.swap(next);
-    } else {
+    if (use_cg) {
+      RowMatrixX3d next = X;  // the previous step: the warm start
+      int budget = max_cg_iterations;
+      if (s == 0 && budget > kFairingProbeIterations) {
+        const PcgReport probe = pcg_solve3(A, rhs, next, kFairingTolerance, kFairingProbeIterations, threads);
+        budget -= probe.iterations;
+        if (!probe.converged) {
+          // Iterations still needed at the rate seen so far (residual reduction per iteration).
+          const double rate = std::pow(probe.relative_residual / probe.initial_relative_residual,
+                                       1.0 / probe.iterations);
+          const double more = rate < 1 ? std::log(kFairingTolerance / probe.relative_residual) / std::log(rate) : 1e300;
+          use_cg = std::isfinite(more) && more <= budget;
+        }
+      }
+      if (use_cg) {
+        use_cg = pcg_solve3(A, rhs, next, kFairingTolerance, budget, threads).converged;
+        if (use_cg) X.swap(next);
+      }
+    }
+    if (!use_cg) {
       if (!ldlt) {
         ldlt = std::make_unique<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>>(Eigen::SparseMatrix<double>(A));
         if (ldlt->info() != Eigen::Success) throw SolverError("fair_mesh: the fairing matrix could not be factorised");
       }
       const Eigen::MatrixXd b = rhs;  // column-major for the solver
       X = ldlt->solve(b);
-      if (ldlt->info() != Eigen::Success)
-        throw SolverError("fair_mesh: the fairing solve failed");
+      if (ldlt->info() != Eigen::Success) throw SolverError("fair_mesh: the fairing solve failed");
     }
     if (!X.allFinite()) throw SolverError("fair_mesh: the fairing solve failed (non-finite result)");
   }

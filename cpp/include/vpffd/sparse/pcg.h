@@ -26,6 +26,7 @@ struct PcgReport {
   int iterations = 0;
   bool converged = false;
   double relative_residual = 0;  ///< max over the columns of |B - A X| / |B| (recurrence)
+  double initial_relative_residual = 0;  ///< the same for the initial guess
 };
 
 /// Solves A X = B from the initial guess in X, until |B_c - A X_c| <= tol |B_c| for
@@ -108,6 +109,8 @@ inline PcgReport pcg_solve3(const RowSparse& A, const Eigen::Ref<const RowMatrix
   for (int c = 0; c < 3; ++c)
     if (!(bb[c] > 0))
       for (Index i = 0; i < n; ++i) X(i, c) = 0;
+  check();
+  rep.initial_relative_residual = rep.relative_residual;
   while (check()) {
     if (rep.iterations == max_iter || !std::isfinite(rep.relative_residual)) return rep;
     ++rep.iterations;
