@@ -12,7 +12,9 @@ its figures are not a GPU's), median frame times of
     point, p' = S' + d N_S', approximate normal of eqs. 6-7; on the CPU the cell-run
     kernel, MultiresFFD.deform, with the per-point kernel's time, deform_per_point,
     printed beside as "MR per-point ms"),
-in million triangles per second, and the bytes per vertex each reads. On Vulkan the
+in million triangles per second, and the bytes per vertex each reads; the time of the
+decomposition itself (``vpffd.Multires``: fairing, foot points, coefficients) on 1
+and 2 threads. On Vulkan the
 three are one submission each (VulkanDeformer's plain frame, with its normals
 pass, and VulkanMultires), timed end to end on the host (upload, dispatch, read-back
 and reordering), with the device's own timestamps of the multiresolution frame
@@ -110,9 +112,11 @@ def speed_vulkan(name, mesh, mr, lat, P, repeats, selector):
 
 
 def speed(name, mesh, smoothing, shape, repeats):
-    t0 = time.perf_counter()
-    mr = vpffd.Multires(mesh, smoothing=smoothing)
-    t_dec = time.perf_counter() - t0
+    t_dec = {}
+    for threads in (1, 2):  # the decomposition's wall time, once per thread count
+        t0 = time.perf_counter()
+        mr = vpffd.Multires(mesh, smoothing=smoothing, threads=threads)
+        t_dec[threads] = time.perf_counter() - t0
     lat = vpffd.Lattice.around(mesh, shape=shape)
     P = np.ascontiguousarray(vpffd.twist(lat.control_points, 90).reshape(-1, 3))
     rows = []
@@ -195,7 +199,8 @@ def main():
             print(f"  ({name}: vulkan MR+VP frame, one submission / two through the host: " + "; ".join(
                 f"volume {v} {one:.1f} / {two:.1f} ms ({one / two:.2f})" for v, (one, two) in subm.items()) + ")",
                 flush=True)
-        print(f"  ({name}: decomposition {t_dec:.2f} s; {mr})", flush=True)
+        print(f"  ({name}: decomposition {t_dec[1]:.2f} s on 1 thread, {t_dec[2]:.2f} s on 2; load average "
+              f"{os.getloadavg()[0]:.2f}; {mr})", flush=True)
         if name == "dragon":
             acc_meshes.append((name, mesh))
     acc_meshes.insert(0, (f"bumpy ico{a.accuracy_size}", vpffd.shapes.bumpy_sphere(a.accuracy_size)))

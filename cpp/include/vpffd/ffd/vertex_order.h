@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <vector>
 
+#include "vpffd/core/parallel.h"
 #include "vpffd/ffd/vertex_basis.h"
 
 namespace vpffd {
@@ -29,31 +30,38 @@ inline std::vector<std::int32_t> counting_sort(const std::vector<std::int32_t>& 
 
 /// Stable counting sort of the points by their cell.
 /// @returns order: processing position -> original index
-inline std::vector<std::int32_t> cell_order(const BasisTables& T, const Embedding& E) {
+inline std::vector<std::int32_t> cell_order(const BasisTables& T, const Embedding& E, int threads = 1) {
   const Index n = E.size();
   std::vector<std::int32_t> cell(n);
-  for (Index v = 0; v < n; ++v) cell[v] = detail::cell_index(T, E, v);
+  parallel_range(n, threads, [&](Index b, Index e) {
+    for (Index v = b; v < e; ++v) cell[v] = detail::cell_index(T, E, v);
+  });
   return counting_sort(cell, Index(T.dims[0]) * T.dims[1] * T.dims[2]);
 }
 
 /// The inverse permutation: original index -> processing position.
-inline std::vector<std::int32_t> inverse_order(const std::vector<std::int32_t>& order) {
+inline std::vector<std::int32_t> inverse_order(const std::vector<std::int32_t>& order, int threads = 1) {
   std::vector<std::int32_t> rank(order.size());
-  for (size_t i = 0; i < order.size(); ++i) rank[order[i]] = static_cast<std::int32_t>(i);
+  parallel_range(Index(order.size()), threads, [&](Index b, Index e) {
+    for (Index i = b; i < e; ++i) rank[order[i]] = static_cast<std::int32_t>(i);
+  });
   return rank;
 }
 
 /// out[i] = E[order[i]] (order: new position -> old index).
-inline Embedding permute_embedding(const Embedding& E, const std::vector<std::int32_t>& order) {
+inline Embedding permute_embedding(const Embedding& E, const std::vector<std::int32_t>& order, int threads = 1) {
   Embedding out;
   for (int a = 0; a < 3; ++a) {
     out.span[a].resize(order.size());
     out.tau[a].resize(order.size());
-    for (size_t i = 0; i < order.size(); ++i) {
-      out.span[a][i] = E.span[a][order[i]];
-      out.tau[a][i] = E.tau[a][order[i]];
-    }
   }
+  parallel_range(Index(order.size()), threads, [&](Index b, Index e) {
+    for (int a = 0; a < 3; ++a)
+      for (Index i = b; i < e; ++i) {
+        out.span[a][i] = E.span[a][order[i]];
+        out.tau[a][i] = E.tau[a][order[i]];
+      }
+  });
   return out;
 }
 

@@ -29,6 +29,7 @@
 #include "vpffd/ffd/cell_runs.h"
 #include "vpffd/ffd/kernels.h"
 #include "vpffd/ffd/points.h"
+#include "vpffd/ffd/reorder.h"
 #include "vpffd/ffd/vertex_order.h"
 #include "vpffd/lattice/embed.h"
 #include "vpffd/lattice/periodic.h"
@@ -82,10 +83,12 @@ class Deformer {
   void set_rest_vertices(const Eigen::Ref<const RowMatrixX3d>& X, int threads = 0) {
     VPFFD_CHECK(X.rows() == n_vertices(), "set_rest_vertices: ", X.rows(), " vertices, the mesh has ", n_vertices(),
                 " (the faces stay; give every vertex a new position)");
-    for (Index v = 0; v < X.rows(); ++v)
-      VPFFD_CHECK(std::isfinite(X(v, 0)) && std::isfinite(X(v, 1)) && std::isfinite(X(v, 2)),
-                  "set_rest_vertices: vertex ", v, " has a non-finite coordinate (", X(v, 0), ", ", X(v, 1), ", ",
-                  X(v, 2), ")");
+    // allFinite() is one vectorised pass; the loop only finds the culprit.
+    if (!X.allFinite())
+      for (Index v = 0; v < X.rows(); ++v)
+        VPFFD_CHECK(std::isfinite(X(v, 0)) && std::isfinite(X(v, 1)) && std::isfinite(X(v, 2)),
+                    "set_rest_vertices: vertex ", v, " has a non-finite coordinate (", X(v, 0), ", ", X(v, 1), ", ",
+                    X(v, 2), ")");
     embed_rest(X, threads, "set_rest_vertices");
   }
 
@@ -264,9 +267,15 @@ class Deformer {
     } catch (const InvalidInputError& e) {
       throw InvalidInputError(std::string(where) + ": " + e.what() + parts_outside(V));
     }
+    const double rest_volume = signed_volume(V, F_, origin_, threads);
+    // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
+    // and every volume a frame reports or aims at would be inf or NaN.
+    VPFFD_CHECK(std::isfinite(rest_volume), where, ": the mesh's enclosed volume overflows double precision (",
+                rest_volume, "; coordinates up to ", V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
+    // Nothing below throws: the Deformer's state is replaced from here on.
     // Frames run in cell order (vertex_order.h); the faces are renumbered to match
     // and reordered too (below), so face sums round differently from unsorted ones.
-    std::vector<std::int32_t> order = cell_order(tables_, E);
+    std::vector<std::int32_t> order = cell_order(tables_, E, threads);
     const int K = parts_.count;
     std::vector<Index> part_start(K + 1, 0);
     if (has_parts_) {
@@ -283,25 +292,58 @@ class Deformer {
     } else {
       part_start[1] = nv;
     }
-    std::vector<std::int32_t> rank = inverse_order(order);
     // Along a "shift" seam a wrapped vertex maps to D(wrapped) + its translation
     // (lattice/periodic.h), kept per vertex in processing order.
-    RowMatrixX3d shift;
+    seam_shift_.resize(0, 3);
     {
       const RowMatrixX3d T = seam_translations(lattice_, V);
       if (T.rows() > 0) {
-        shift.resize(T.rows(), 3);
-        for (Index i = 0; i < T.rows(); ++i) shift.row(i) = T.row(order[i]);
+        seam_shift_.resize(T.rows(), 3);
+        for (Index i = 0; i < T.rows(); ++i) seam_shift_.row(i) = T.row(order[i]);
       }
+    }
+    embedding_ = permute_embedding(E, order, threads);
+    runs_ = cell_runs(embedding_);
+    V_ = V;
+    rest_volume_ = rest_volume;
+    {
+      std::lock_guard<std::mutex> lock(face_matrix_mutex_);
+      face_matrix_.reset();  // built from the old embedding
+    }
+    // A moved object often keeps its processing order (no vertex changed cell, or all
+    // its vertices moved together): then the faces and fans are those it has.
+    if (order == order_) {
+      if (has_parts_) rest_part_volumes_ = part_volumes_in_order(threads);
+      return;
+    }
+    std::vector<std::int32_t> rank = inverse_order(order, threads);
+    // A move carries the faces and fans of the previous order over (reorder.h):
+    // old position -> new position, and new position -> old position.
+    std::vector<std::int32_t> old_to_new, new_to_old;
+    if (!order_.empty()) {
+      old_to_new.resize(nv);
+      new_to_old.resize(nv);
+      parallel_range(nv, threads, [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i) {
+          old_to_new[i] = rank[order_[i]];
+          new_to_old[i] = rank_[order[i]];
+        }
+      });
     }
     // Faces follow their lowest vertex in processing order, so the face pass and
     // the per-vertex face sums stay local too (and each part's faces are together).
-    std::vector<std::int32_t> forder = face_order(F_, rank);
-    RowMatrixX3i Fs(F_.rows(), 3);
-    parallel_range(F_.rows(), threads, [&](Index b, Index e) {
-      for (Index f = b; f < e; ++f)
-        for (int c = 0; c < 3; ++c) Fs(f, c) = rank[F_(forder[f], c)];
-    });
+    std::vector<std::int32_t> forder;
+    RowMatrixX3i Fs;
+    if (order_.empty()) {
+      forder = face_order(F_, rank);
+      Fs.resize(F_.rows(), 3);
+      parallel_range(F_.rows(), threads, [&](Index b, Index e) {
+        for (Index f = b; f < e; ++f)
+          for (int c = 0; c < 3; ++c) Fs(f, c) = rank[F_(forder[f], c)];
+      });
+    } else {
+      reorder_faces(Fs_, face_order_, old_to_new, forder, Fs, threads);
+    }
     std::vector<Index> face_start(K + 1, 0);
     if (has_parts_) {
       for (Index f = 0; f < Fs.rows(); ++f) ++face_start[parts_.vertex_part[F_(forder[f], 0)] + 1];
@@ -309,46 +351,41 @@ class Deformer {
     } else {
       face_start[1] = Fs.rows();
     }
-    const double rest_volume = signed_volume(V, F_, origin_, threads);
-    // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
-    // and every volume a frame reports or aims at would be inf or NaN.
-    VPFFD_CHECK(std::isfinite(rest_volume), where, ": the mesh's enclosed volume overflows double precision (",
-                rest_volume, "; coordinates up to ", V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
-    Embedding Es = permute_embedding(E, order);
-    VectorXd rest_parts;
-    if (has_parts_) {
-      RowMatrixX3d Vs(nv, 3);
-      for (Index i = 0; i < nv; ++i) Vs.row(i) = V.row(order[i]);
-      rest_parts = part_volumes(Vs.data(), Fs, face_start, origin_, threads);
+    // A closed mesh's weights come from the fans (half the reads); an open one's
+    // cone weights need the pairs (VertexFans' separators add zero only with b = p_v).
+    // Both are built once, in the mesh's own numbering (from F_ in its face order, so
+    // the terms of a weight come in an order no move changes), and relabelled into
+    // each processing order.
+    if (order_.empty()) {
+      if (is_closed())
+        fans_ = permute_fans(vertex_fans(vertex_rings(F_, nv)), order, rank, threads);
+      else
+        rings_ = permute_rings(vertex_rings(F_, nv), order, rank, threads);
+    } else if (is_closed()) {
+      fans_ = permute_fans(fans_, new_to_old, old_to_new, threads);
+    } else {
+      rings_ = permute_rings(rings_, new_to_old, old_to_new, threads);
     }
-
-    V_ = V;
     order_.swap(order);
     rank_.swap(rank);
-    runs_ = cell_runs(Es);
-    embedding_ = std::move(Es);
-    seam_shift_ = std::move(shift);
     face_order_.swap(forder);
     Fs_ = std::move(Fs);
     part_start_.swap(part_start);
     face_start_.swap(face_start);
-    // A closed mesh's weights come from the fans (half the reads); an open one's
-    // cone weights need the pairs (VertexFans' separators add zero only with b = p_v).
-    if (is_closed()) {
-      fans_ = vertex_fans(vertex_rings(Fs_, nv));
-      rings_ = VertexRings{};
-    } else {
-      rings_ = vertex_rings(Fs_, nv);
-      fans_ = VertexFans{};
-    }
     {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       adjacency_.reset();  // of the old faces' numbering
     }
-    rest_volume_ = rest_volume;
-    rest_part_volumes_ = std::move(rest_parts);
-    std::lock_guard<std::mutex> lock(face_matrix_mutex_);
-    face_matrix_.reset();  // built from the old embedding and faces
+    if (has_parts_) rest_part_volumes_ = part_volumes_in_order(threads);
+  }
+
+  /// Each part's rest volume, summed over its faces in processing order.
+  VectorXd part_volumes_in_order(int threads) const {
+    RowMatrixX3d Vs(n_vertices(), 3);
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      for (Index i = b; i < e; ++i) Vs.row(i) = V_.row(order_[i]);
+    });
+    return part_volumes(Vs.data(), Fs_, face_start_, origin_, threads);
   }
 
   /// With parts: which of them have vertices outside the lattice box (the test of
@@ -481,8 +518,8 @@ class Deformer {
   EdgeReport edges_;
   mutable std::mutex adjacency_mutex_;
   mutable std::unique_ptr<VertexFaces> adjacency_;  ///< of Fs_, built on first use
-  VertexRings rings_;  ///< of Fs_, for an open mesh (empty for a closed one)
-  VertexFans fans_;    ///< of Fs_, for a closed mesh (empty for an open one)
+  VertexRings rings_;  ///< of F_ relabelled by rank_, for an open mesh (empty for a closed one)
+  VertexFans fans_;    ///< of F_ relabelled by rank_, for a closed mesh (empty for an open one)
   Vector3d origin_;
   double rest_volume_ = 0;
   bool has_parts_ = false;

@@ -77,7 +77,7 @@ inline Multires decompose(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::
   m.fine = V;
   m.faces = F;
   m.smoothing = smoothing;
-  m.base = fair_mesh(V, F, smoothing);
+  m.base = fair_mesh(V, F, smoothing, threads);
   m.rest_normals = vertex_normals(V, F, threads);
   const std::vector<FootPoint> fp = foot_points(V, m.base, F, threads);
   const Index n = V.rows();

@@ -1,0 +1,194 @@
+// Carrying faces and fans from one processing order to the next (ffd/reorder.h), and
+// the shortcuts of Deformer::set_rest_vertices built on them: every result must be
+// that of a fresh Deformer on the moved mesh, bit for bit.
+
+#include <algorithm>
+#include <numeric>
+#include <random>
+
+#include "helpers.h"
+#include "vpffd/ffd/reorder.h"
+
+using namespace vpffd;
+using namespace vpffd::test;
+
+namespace {
+
+std::vector<std::int32_t> random_order(Index n, std::mt19937& rng) {
+  std::vector<std::int32_t> o(n);
+  std::iota(o.begin(), o.end(), 0);
+  std::shuffle(o.begin(), o.end(), rng);
+  return o;
+}
+
+/// face_order + renumbering, as the first embedding computes them.
+void sorted_faces(const RowMatrixX3i& F, const std::vector<std::int32_t>& rank, std::vector<std::int32_t>& forder,
+                  RowMatrixX3i& Fs) {
+  forder = face_order(F, rank);
+  Fs.resize(F.rows(), 3);
+  for (Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) Fs(f, c) = rank[F(forder[f], c)];
+}
+
+/// The same mesh moved: every vertex by `d`, plus a small wobble (amplitude `wobble`).
+RowMatrixX3d moved(const RowMatrixX3d& V, const Vector3d& d, double wobble) {
+  RowMatrixX3d X = V;
+  for (Index v = 0; v < V.rows(); ++v)
+    X.row(v) += d.transpose() + wobble * Eigen::RowVector3d(std::sin(3.0 * v), std::cos(5.0 * v), std::sin(7.0 * v));
+  return X;
+}
+
+/// Everything a frame reads from the rest mesh, compared bit for bit.
+void expect_same_deformer(const Deformer& D, const Deformer& fresh, const RowMatrixX3d& X, const RowMatrixX3d& P) {
+  EXPECT_EQ(D.processing_order(), fresh.processing_order());
+  EXPECT_EQ(D.face_processing_order(), fresh.face_processing_order());
+  EXPECT_EQ(D.processing_faces(), fresh.processing_faces());
+  EXPECT_EQ(D.part_start(), fresh.part_start());
+  EXPECT_EQ(D.rest_volume(true), fresh.rest_volume(true));
+  if (D.has_parts()) EXPECT_EQ(D.rest_part_volumes(), fresh.rest_part_volumes());
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_EQ(D.processing_embedding().span[a], fresh.processing_embedding().span[a]);
+    EXPECT_EQ(D.processing_embedding().tau[a], fresh.processing_embedding().tau[a]);
+    // The weights come from the fans (closed) or rings (open): equal coefficients
+    // mean equal lists in the same order.
+    const AxisCoefficients c = D.volume_coefficients(X, a), f = fresh.volume_coefficients(X, a);
+    EXPECT_EQ(c.alpha, f.alpha);
+    EXPECT_EQ(c.volume, f.volume);
+  }
+  CorrectionOptions o;
+  o.allow_open = !D.is_closed();
+  const DeformResult a = D.deform(P, o), b = fresh.deform(P, o);
+  EXPECT_EQ(a.vertices, b.vertices);
+  EXPECT_EQ(a.volume, b.volume);
+  EXPECT_EQ(a.part_volumes, b.part_volumes);
+}
+
+}  // namespace
+
+TEST(Reorder, FacesFromThePreviousOrderEqualASort) {
+  std::mt19937 rng(7);
+  TriMesh m = icosphere(3);
+  // Degenerate faces (a repeated corner) and duplicated faces are allowed in a mesh:
+  // ties and repeats must come out in face_order's order too.
+  m.F.conservativeResize(m.F.rows() + 3, 3);
+  m.F.row(m.F.rows() - 3) << 4, 4, 9;
+  m.F.row(m.F.rows() - 2) << 7, 8, 7;
+  m.F.row(m.F.rows() - 1) = m.F.row(10);
+  const Index nv = m.V.rows();
+  std::vector<std::int32_t> order = random_order(nv, rng), rank = inverse_order(order);
+  std::vector<std::int32_t> forder;
+  RowMatrixX3i Fs;
+  sorted_faces(m.F, rank, forder, Fs);
+  for (int move = 0; move < 4; ++move) {
+    // A random new order, then one that differs from it by a few swaps (a small move).
+    std::vector<std::int32_t> next = random_order(nv, rng);
+    if (move % 2 == 1) {
+      next = order;
+      for (int k = 0; k < 5; ++k) std::swap(next[rng() % nv], next[rng() % nv]);
+    }
+    const std::vector<std::int32_t> next_rank = inverse_order(next);
+    std::vector<std::int32_t> to(nv);
+    for (Index j = 0; j < nv; ++j) to[j] = next_rank[order[j]];
+    std::vector<std::int32_t> got_order, want_order;
+    RowMatrixX3i got, want;
+    reorder_faces(Fs, forder, to, got_order, got, 2);
+    sorted_faces(m.F, next_rank, want_order, want);
+    EXPECT_EQ(got_order, want_order) << "move " << move;
+    EXPECT_EQ(got, want) << "move " << move;
+    order = next;
+    forder = got_order;
+    Fs = got;
+  }
+}
+
+TEST(Reorder, RelabelledFansComposeAndChainTheirRings) {
+  std::mt19937 rng(3);
+  const TriMesh m = icosphere(2);
+  const Index nv = m.V.rows();
+  const VertexFans base = vertex_fans(vertex_rings(m.F, nv));
+  const std::vector<std::int32_t> o1 = random_order(nv, rng), r1 = inverse_order(o1);
+  const std::vector<std::int32_t> o2 = random_order(nv, rng), r2 = inverse_order(o2);
+  // Two relabellings in a row equal one: what set_rest_vertices relies on.
+  std::vector<std::int32_t> from(nv), to(nv);
+  for (Index i = 0; i < nv; ++i) {
+    from[i] = r1[o2[i]];
+    to[i] = r2[o1[i]];
+  }
+  const VertexFans once = permute_fans(base, o2, r2), twice = permute_fans(permute_fans(base, o1, r1), from, to, 2);
+  EXPECT_EQ(once.indptr, twice.indptr);
+  EXPECT_EQ(once.fan, twice.fan);
+  // A relabelled fan is a fan of the relabelled mesh: its consecutive pairs are the
+  // vertex's ring pairs (each face around it once, in its winding).
+  RowMatrixX3i G(m.F.rows(), 3);
+  for (Index f = 0; f < m.F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) G(f, c) = r2[m.F(f, c)];
+  const VertexRings rings = vertex_rings(G, nv);
+  for (Index i = 0; i < nv; ++i) {
+    std::vector<std::pair<int, int>> want, got;
+    for (int p = rings.indptr[i]; p < rings.indptr[i + 1]; ++p) want.emplace_back(rings.pairs[2 * p], rings.pairs[2 * p + 1]);
+    for (int p = once.indptr[i]; p + 1 < once.indptr[i + 1]; ++p) got.emplace_back(once.fan[p], once.fan[p + 1]);
+    std::sort(want.begin(), want.end());
+    std::sort(got.begin(), got.end());
+    ASSERT_EQ(got, want) << "vertex " << i;
+  }
+}
+
+TEST(MovingRest, KeptAndChangedOrdersEqualAFreshDeformer) {
+  const TriMesh m = icosphere(3);
+  const Lattice L = lattice_around(m.V, {6, 6, 6}, 3, 0.4);
+  const RowMatrixX3d P = twist(rest_control_points(L), 0.6, 2, 0.5 * (L.box_min + L.box_max));
+  Deformer D(m.V, m.F, L, OutsidePolicy::Error, 2);
+  // 1e-9 of the box moves no vertex to another cell (none lies that close to a cell
+  // face on this mesh: checked below by the order staying the same); 0.07 moves many.
+  const double cell = (L.box_max.x() - L.box_min.x()) / 3.0;
+  const std::vector<std::int32_t> start = D.processing_order();
+  RowMatrixX3d X = moved(m.V, Vector3d(1e-9, -1e-9, 1e-9) * cell, 0.0);
+  D.set_rest_vertices(X, 2);
+  EXPECT_EQ(D.processing_order(), start) << "the tiny move was to keep the order";
+  expect_same_deformer(D, Deformer(X, m.F, L, OutsidePolicy::Error, 1), X, P);
+  for (int step = 1; step <= 3; ++step) {  // several moves in a row, some reorder
+    X = moved(m.V, Vector3d(0.07, -0.05, 0.03) * step, step == 2 ? 0.01 : 0.0);
+    const std::vector<std::int32_t> before = D.processing_order();
+    D.set_rest_vertices(X, step % 2 + 1);
+    EXPECT_NE(D.processing_order(), before) << "step " << step << " was to change the order";
+    expect_same_deformer(D, Deformer(X, m.F, L, OutsidePolicy::Error, 1), X, P);
+  }
+}
+
+TEST(MovingRest, OpenMeshPartsAndPeriodicEqualAFreshDeformer) {
+  // An open mesh: the weights come from the rings (relabelled pairs), not the fans.
+  TriMesh open = icosphere(3);
+  open.F.conservativeResize(open.F.rows() - 7, 3);
+  const Lattice Lo = lattice_around(open.V, {5, 6, 5}, 2, 0.4);
+  const RowMatrixX3d Po = squashed(Lo, 0.8);
+  Deformer Do(open.V, open.F, Lo, OutsidePolicy::Error, 2);
+  ASSERT_FALSE(Do.is_closed());
+  for (int step = 1; step <= 3; ++step) {
+    const RowMatrixX3d X = moved(open.V, Vector3d(-0.06, 0.05, 0.04) * step, 0.005);
+    Do.set_rest_vertices(X, 2);
+    expect_same_deformer(Do, Deformer(X, open.F, Lo, OutsidePolicy::Error, 1), X, Po);
+  }
+  // Two spheres as parts on a lattice periodic along x (shift seam): the spheres
+  // travel past the seam and wrap.
+  const TriMesh s = icosphere(2);
+  TriMesh two;
+  two.V.resize(2 * s.V.rows(), 3);
+  two.F.resize(2 * s.F.rows(), 3);
+  two.V << s.V, s.V.rowwise() + Eigen::RowVector3d(2.5, 0, 0);
+  two.F << s.F, s.F.array() + int(s.V.rows());
+  const MeshParts parts = parts_from_components(two.F, two.V.rows());
+  Lattice L;
+  L.degree = {3, 2, 2};
+  L.box_min = Vector3d(-1.5, -1.5, -1.5);
+  L.box_max = Vector3d(5.5, 1.5, 1.5);
+  L.seam = {Seam::Shift, Seam::None, Seam::None};
+  L.knots = {periodic_uniform_knots(8, 3), clamped_uniform_knots(4, 2), clamped_uniform_knots(4, 2)};
+  validate_lattice(L);
+  const RowMatrixX3d P = restrict_points(make_ties(L), squashed(L, 0.7));
+  Deformer D(two.V, two.F, L, OutsidePolicy::Error, 2, &parts);
+  for (int step = 1; step <= 4; ++step) {
+    const RowMatrixX3d X = moved(two.V, Vector3d(1.3 * step, 0.02, -0.02), 0.0);
+    D.set_rest_vertices(X, 2);
+    expect_same_deformer(D, Deformer(X, two.F, L, OutsidePolicy::Error, 1, &parts), X, P);
+  }
+}
