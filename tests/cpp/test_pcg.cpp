@@ -80,4 +80,28 @@ TEST(Pcg, FairingEqualsTheDirectFactorisation) {
   EXPECT_GT((direct - m.V).norm(), 1e-3 * scale);  // the fairing did move the mesh
 }
 
+// A vertex in no face: its diagonal entry is inserted into the assembled matrix,
+// which leaves it uncompressed; the solver once read its gaps as entries (a crash).
+// The vertex stays put, the rest is faired as without it.
+TEST(Pcg, FairingKeepsAVertexInNoFace) {
+  const TriMesh m = bumpy(3);
+  RowMatrixX3d V(m.V.rows() + 1, 3);
+  V.topRows(m.V.rows()) = m.V;
+  V.row(m.V.rows()) = Vector3d(0.1, 0.2, 0.3).transpose();
+  const RowMatrixX3d with = fair_mesh(V, m.F, 5, 1);
+  const RowMatrixX3d without = fair_mesh(m.V, m.F, 5, 1);
+  EXPECT_EQ(with.row(m.V.rows()), V.row(m.V.rows()));
+  // The extra vertex changes the mean mass and edge length only through its own
+  // (mean) mass; the step size h is the same, so the rest agrees to the solver's tolerance.
+  EXPECT_LE((with.topRows(m.V.rows()) - without).norm(), 1e-10 * without.norm());
+  // An uncompressed matrix is refused, not misread.
+  RowSparse A(3, 3);
+  A.coeffRef(0, 0) = 2;
+  A.makeCompressed();
+  A.coeffRef(1, 1) = 2;
+  A.coeffRef(2, 2) = 2;
+  RowMatrixX3d X = RowMatrixX3d::Zero(3, 3);
+  EXPECT_THROW(pcg_solve3(A, RowMatrixX3d::Ones(3, 3), X, 1e-12, 10, 1), InvalidInputError);
+}
+
 }  // namespace vpffd::test

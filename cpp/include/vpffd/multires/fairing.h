@@ -130,6 +130,7 @@ inline RowMatrixX3d fair_mesh(const Eigen::Ref<const RowMatrixX3d>& V, const Eig
   const double h = (smoothing / steps) * e * e;
   RowSparse A = h * K;
   for (Index v = 0; v < V.rows(); ++v) A.coeffRef(v, v) += mass[v];
+  A.makeCompressed();  // an isolated vertex's diagonal was inserted; pcg_solve3 reads the compressed arrays
   RowMatrixX3d X = V, rhs(V.rows(), 3);
   std::unique_ptr<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>> ldlt;
   bool use_cg = max_cg_iterations > 0;

@@ -15,6 +15,7 @@
 
 #include <Eigen/Sparse>
 
+#include "vpffd/core/check.h"
 #include "vpffd/core/parallel.h"
 #include "vpffd/core/types.h"
 
@@ -31,12 +32,17 @@ struct PcgReport {
 
 /// Solves A X = B from the initial guess in X, until |B_c - A X_c| <= tol |B_c| for
 /// every column c (2-norms; a zero column gives X_c = 0) or `max_iter` iterations.
-/// @param A  n x n symmetric positive definite, row-major, with its diagonal stored
+/// @param A  n x n symmetric positive definite, row-major, compressed, with its
+///           diagonal stored (positive)
 /// @param B  n x 3
 /// @param[in,out] X  n x 3 initial guess, then the solution
 inline PcgReport pcg_solve3(const RowSparse& A, const Eigen::Ref<const RowMatrixX3d>& B, RowMatrixX3d& X, double tol,
                             int max_iter, int threads = 0) {
   const Index n = A.rows();
+  // The loops below read the compressed arrays: an uncompressed matrix (after
+  // coeffRef inserted an entry) has gaps they would read as entries.
+  VPFFD_CHECK(A.isCompressed() && A.cols() == n && B.rows() == n && X.rows() == n,
+              "pcg_solve3: needs a compressed square matrix and n x 3 blocks");
   const int* ip = A.outerIndexPtr();
   const int* col = A.innerIndexPtr();
   const double* val = A.valuePtr();
@@ -45,6 +51,7 @@ inline PcgReport pcg_solve3(const RowSparse& A, const Eigen::Ref<const RowMatrix
     double d = 0;
     for (int k = ip[i]; k < ip[i + 1]; ++k)
       if (col[k] == i) d = val[k];
+    VPFFD_CHECK(d > 0, "pcg_solve3: diagonal entry ", i, " is ", d, " (the matrix is not positive definite)");
     inv_diag[i] = 1.0 / d;
   }
   const int chunks = chunk_count(n);
