@@ -13,17 +13,6 @@
 namespace vpffd::test {
 namespace {
 
-/// An icosphere with bumps (radius 1 + 0.05 sin 7x sin 7y sin 7z): details whose
-/// displacement from a faired base is clearly non-zero.
-TriMesh bumpy(int subdivisions) {
-  TriMesh m = icosphere(subdivisions);
-  for (Index i = 0; i < m.V.rows(); ++i) {
-    const Vector3d u = m.V.row(i).normalized();
-    m.V.row(i) = (u * (1.0 + 0.05 * std::sin(7 * u.x()) * std::sin(7 * u.y()) * std::sin(7 * u.z()))).transpose();
-  }
-  return m;
-}
-
 double diag_of(const RowMatrixX3d& V) { return (V.colwise().maxCoeff() - V.colwise().minCoeff()).norm(); }
 
 Matrix3d rotation() {

@@ -24,15 +24,6 @@ RowSparse fairing_operator(const RowMatrixX3d& V, const RowMatrixX3i& F) {
   return A;
 }
 
-TriMesh bumpy(int subdivisions) {
-  TriMesh m = icosphere(subdivisions);
-  for (Index i = 0; i < m.V.rows(); ++i) {
-    const Vector3d u = m.V.row(i).normalized();
-    m.V.row(i) = (u * (1.0 + 0.05 * std::sin(7 * u.x()) * std::sin(7 * u.y()) * std::sin(7 * u.z()))).transpose();
-  }
-  return m;
-}
-
 }  // namespace
 
 TEST(Pcg, SolvesToTheToleranceForAnyThreadCount) {

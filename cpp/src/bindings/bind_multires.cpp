@@ -24,6 +24,18 @@ py::tuple frame_to_python(MultiresFrame&& f) {
   return py::make_tuple(py::cast(std::move(f.vertices)), py::cast(std::move(f.normals)));
 }
 
+/// A MultiresFFD frame method bound with the GIL released while it runs.
+auto frame_method(MultiresFrame (MultiresFFD::*method)(const Eigen::Ref<const RowMatrixX3d>&, int) const) {
+  return [method](const MultiresFFD& d, RefV P, int threads) {
+    MultiresFrame f;
+    {
+      py::gil_scoped_release release;
+      f = (d.*method)(P, threads);
+    }
+    return frame_to_python(std::move(f));
+  };
+}
+
 }  // namespace
 
 void bind_multires(py::module_& m) {
@@ -63,25 +75,11 @@ void bind_multires(py::module_& m) {
                                     [](py::object) { return MultiresFFD::frame_bytes_per_vertex; })
       .def(
           "deform",
-          [](const MultiresFFD& d, RefV P, int threads) {
-            MultiresFrame f;
-            {
-              py::gil_scoped_release release;
-              f = d.deform(P, threads);
-            }
-            return frame_to_python(std::move(f));
-          },
+          frame_method(&MultiresFFD::deform),
           py::arg("control_points"), py::arg("threads") = 0, "(vertices (V, 3), unit normals (V, 3)).")
       .def(
           "deform_per_point",
-          [](const MultiresFFD& d, RefV P, int threads) {
-            MultiresFrame f;
-            {
-              py::gil_scoped_release release;
-              f = d.deform_per_point(P, threads);
-            }
-            return frame_to_python(std::move(f));
-          },
+          frame_method(&MultiresFFD::deform_per_point),
           py::arg("control_points"), py::arg("threads") = 0,
           "deform() with the per-point kernel (its reference): (vertices (V, 3), unit normals (V, 3)).")
       .def_property_readonly("uses_cell_runs", &MultiresFFD::uses_cell_runs)

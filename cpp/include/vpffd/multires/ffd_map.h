@@ -137,46 +137,25 @@ class MultiresFFD {
   void foot_values_jacobians(const Eigen::Ref<const RowMatrixX3d>& P, RowMatrixX3d& values, RowMatrixXd& J,
                              int threads = 0) const {
     if (!uses_cell_runs()) return foot_values_jacobians_per_point(P, values, J, threads);
-    check_control_points(P);
-    const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
-    const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
-    const Index n = m_->n_vertices();
-    values.resize(n, 3);
-    J.resize(n, 9);
-    parallel_range(n, threads, [&](Index b, Index e) {
-      detail::dispatch_order(tables_, [&](auto K) {
-        if constexpr (decltype(K)::value > 0)
-          detail::foot_runs_eval<decltype(K)::value>(
-              tables_, runs_, du_dx_, Pc, b, e, [&](Index u, const Vector3d& s1, const Matrix3d& Ju) {
-                const Index i = runs_.order[u];
-                values.row(i) = s1.transpose();
-                for (int r = 0; r < 3; ++r)
-                  for (int c = 0; c < 3; ++c) J(i, 3 * r + c) = Ju(r, c);
-              });
-      });
+    fill_values_jacobians(P, values, J, threads, [&](auto K, const double* const* Pc, Index b, Index e, auto&& put) {
+      if constexpr (decltype(K)::value > 0)
+        detail::foot_runs_eval<decltype(K)::value>(tables_, runs_, du_dx_, Pc, b, e,
+                                                   [&](Index u, const Vector3d& x, const Matrix3d& Ju) {
+                                                     put(runs_.order[u], x, Ju);
+                                                   });
     });
   }
 
   /// foot_values_jacobians with the per-point kernel: the reference.
   void foot_values_jacobians_per_point(const Eigen::Ref<const RowMatrixX3d>& P, RowMatrixX3d& values,
                                        RowMatrixXd& J, int threads = 0) const {
-    check_control_points(P);
-    const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
-    const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
-    const Index n = m_->n_vertices();
-    values.resize(n, 3);
-    J.resize(n, 9);
-    parallel_range(n, threads, [&](Index b, Index e) {
-      detail::dispatch_order(tables_, [&](auto K) {
-        for (Index i = b; i < e; ++i) {
-          Vector3d x;
-          Matrix3d Ji;
-          detail::ffd_value_jacobian<decltype(K)::value>(tables_, embedding_, Pc, du_dx_, i, x, Ji);
-          values.row(i) = x.transpose();
-          for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c) J(i, 3 * r + c) = Ji(r, c);
-        }
-      });
+    fill_values_jacobians(P, values, J, threads, [&](auto K, const double* const* Pc, Index b, Index e, auto&& put) {
+      for (Index i = b; i < e; ++i) {
+        Vector3d x;
+        Matrix3d Ji;
+        detail::ffd_value_jacobian<decltype(K)::value>(tables_, embedding_, Pc, du_dx_, i, x, Ji);
+        put(i, x, Ji);
+      }
     });
   }
 
@@ -242,6 +221,26 @@ class MultiresFFD {
   }
 
  private:
+  /// The frame of both foot_values_jacobians: eval(K, Pc, b, e, put) evaluates the
+  /// points of [b, e) and calls put(vertex, value, Jacobian) for each.
+  template <class Eval>
+  void fill_values_jacobians(const Eigen::Ref<const RowMatrixX3d>& P, RowMatrixX3d& values, RowMatrixXd& J,
+                             int threads, Eval&& eval) const {
+    check_control_points(P);
+    const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+    const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
+    const Index n = m_->n_vertices();
+    values.resize(n, 3);
+    J.resize(n, 9);
+    auto put = [&](Index i, const Vector3d& x, const Matrix3d& Ji) {
+      values.row(i) = x.transpose();
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) J(i, 3 * r + c) = Ji(r, c);
+    };
+    parallel_range(n, threads, [&](Index b, Index e) {
+      detail::dispatch_order(tables_, [&](auto K) { eval(K, Pc, b, e, put); });
+    });
+  }
   std::shared_ptr<const Multires> m_;
   Lattice lattice_;
   BasisTables tables_;
