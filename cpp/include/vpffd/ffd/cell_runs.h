@@ -323,16 +323,7 @@ double gather_final_runs(const BasisTables& T, const Embedding& E, const CellRun
                          Index b, Index e) {
   double vsum = 0;
   eval_runs<K, 1>(T, E, R, {D}, b, e, [&](Index v, Index n, const std::array<Lanes, 1>& g) {
-    for (Index l = 0; l < n; ++l) {
-      const Index u = v + l;
-      double p[3] = {X[3 * u], X[3 * u + 1], X[3 * u + 2]};
-      p[axis] += g[0][l];
-      vsum += w[u] * (p[axis] - o);
-      double* q = out + 3 * Index(order[u]);
-      q[0] = p[0];
-      q[1] = p[1];
-      q[2] = p[2];
-    }
+    for (Index l = 0; l < n; ++l) vsum += move_final(X, v + l, axis, g[0][l], w, o, order, out);
   });
   return vsum;
 }
