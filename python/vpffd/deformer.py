@@ -346,14 +346,8 @@ class Deformer:
         _folds.check_on_fold(on_fold)
         if not isinstance(normals, (bool, np.bool_)):
             raise TypeError(f"normals: expected a bool, got {type(normals).__name__}")
-        n, shape = self.n_control_points, self.lattice.shape
         P = self._P(control_points)
-        if isinstance(weights, str):
-            if weights != "auto":
-                raise InvalidInputError(f"weights: expected an array or 'auto', got {weights!r}")
-            weights = _local_weights.auto_weights(self, P)
-        w = None if weights is None else _arrays.per_control_point(weights, n, shape, "weights", float)
-        fx = None if fixed is None else _arrays.per_control_point(fixed, n, shape, "fixed", bool)
+        w, fx = correction_arrays(self, P, weights, fixed)
         cons = []
         for i, c in enumerate(constraints or []):
             try:
@@ -418,8 +412,8 @@ class Deformer:
             rest = self._vk.rest_volume(True) if self._vk is not None else self._core.rest_volume(True)
         return DeformResult(
             vertices=r["vertices"],
-            control_points=r["control_points"].reshape(*shape, 3),
-            offsets=r["offsets"].reshape(*shape, 3),
+            control_points=r["control_points"].reshape(*self.lattice.shape, 3),
+            offsets=r["offsets"].reshape(*self.lattice.shape, 3),
             volume=r["volume"], volume_before=r["volume_before"], target_volume=r["target_volume"],
             rest_volume=rest, constraint_error=r["constraint_error"], steps=r["steps"],
             # The device always runs the traversal: report what ran, not what was asked.
@@ -474,3 +468,16 @@ class Deformer:
 
     def __repr__(self) -> str:
         return f"Deformer({self.mesh!r}, {self.lattice!r}, backend={self.backend!r})"
+
+
+def correction_arrays(deformer, P, weights, fixed):
+    """``(weights, fixed)`` of a frame as the core takes them: per-control-point arrays
+    (float, bool) or None; ``weights="auto"`` becomes the local weights of ``P``."""
+    n, shape = deformer.n_control_points, deformer.lattice.shape
+    if isinstance(weights, str):
+        if weights != "auto":
+            raise InvalidInputError(f"weights: expected an array or 'auto', got {weights!r}")
+        weights = _local_weights.auto_weights(deformer, P)
+    w = None if weights is None else _arrays.per_control_point(weights, n, shape, "weights", float)
+    fx = None if fixed is None else _arrays.per_control_point(fixed, n, shape, "fixed", bool)
+    return w, fx

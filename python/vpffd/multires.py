@@ -27,9 +27,8 @@ import numpy as np
 import warnings
 
 from . import _arrays, _core
-from . import local_weights as _local_weights
 from .backends import _requested_precision, _resolve_backend
-from .deformer import Deformer
+from .deformer import Deformer, correction_arrays
 from .lattice import Lattice
 from .mesh import Mesh
 
@@ -204,13 +203,7 @@ def _correction_options(deformer, P, axes, weights, fixed, rounds, threads):
         raise TypeError(f"axes: expected a string such as 'xyz', got {type(axes).__name__}")
     if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)):
         raise TypeError(f"rounds: expected an integer, got {type(rounds).__name__}")
-    n, shape = deformer.n_control_points, deformer.lattice.shape
-    if isinstance(weights, str):
-        if weights != "auto":
-            raise InvalidInputError(f"weights: expected an array or 'auto', got {weights!r}")
-        weights = _local_weights.auto_weights(deformer, P)
-    w = None if weights is None else _arrays.per_control_point(weights, n, shape, "weights", float)
-    fx = None if fixed is None else _arrays.per_control_point(fixed, n, shape, "fixed", bool)
+    w, fx = correction_arrays(deformer, P, weights, fixed)
     return _core.CorrectionOptions(preserve_volume=True, axes=axes, weights=w, fixed=fx, threads=threads,
                                    rounds=int(rounds))
 
