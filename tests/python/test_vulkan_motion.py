@@ -65,6 +65,17 @@ def _moves(V):
     yield V * 1.3
 
 
+def _pair(mesh, lat, precision):
+    """The device deformer under test and the CPU one it is checked against."""
+    return gpu_deformer(mesh, lat, precision), vpffd.Deformer(mesh, lat, backend="serial")
+
+
+def _move_both(g, c, X):
+    """Moves both rest meshes to X."""
+    g.set_rest_vertices(X)
+    c.set_rest_vertices(X)
+
+
 def _mesh(X, faces):
     return vpffd.Mesh(X, faces)
 
@@ -84,12 +95,10 @@ def test_moves_equal_a_fresh_deformer_and_the_cpu(precision):
     mesh = vpffd.shapes.icosphere(3)
     lat = _lattice()
     P = edit(lat)
-    g = gpu_deformer(mesh, lat, precision)
-    c = vpffd.Deformer(mesh, lat, backend="serial")
+    g, c = _pair(mesh, lat, precision)
     for X in _moves(mesh.vertices):
         X_before = X.copy()
-        g.set_rest_vertices(X)
-        c.set_rest_vertices(X)
+        _move_both(g, c, X)
         assert np.array_equal(X, X_before)  # the caller's array is not modified
         assert np.array_equal(g.rest_vertices, X) and np.array_equal(g.mesh.faces, mesh.faces)
         moved = _mesh(X, mesh.faces)
@@ -143,11 +152,9 @@ def test_many_control_points_four_sort_passes(precision):
     mesh = vpffd.shapes.icosphere(3)
     lat = _lattice(shape=(42, 40, 42), degree=2)
     P = edit(lat)
-    g = gpu_deformer(mesh, lat, precision)
-    c = vpffd.Deformer(mesh, lat, backend="serial")
+    g, c = _pair(mesh, lat, precision)
     X = mesh.vertices * 1.2 + [0.31, -0.17, 0.05]
-    g.set_rest_vertices(X)
-    c.set_rest_vertices(X)
+    _move_both(g, c, X)
     moved = _mesh(X, mesh.faces)
     fresh = gpu_deformer(moved, lat, precision)
     assert np.array_equal(g.deform(P, preserve_volume=False).vertices, fresh.deform(P, preserve_volume=False).vertices)
@@ -162,11 +169,9 @@ def test_non_uniform_knots_and_degrees(precision):
                         knots=(kx, base.knots[1], base.knots[2]))
     _check_parameter_precision(lat)
     P = edit(lat)
-    g = gpu_deformer(mesh, lat, precision)
-    c = vpffd.Deformer(mesh, lat, backend="serial")
+    g, c = _pair(mesh, lat, precision)
     for X in _moves(mesh.vertices):  # x = 0 is the double knot
-        g.set_rest_vertices(X)
-        c.set_rest_vertices(X)
+        _move_both(g, c, X)
         check_frame(g.deform(P), c.deform(P), _mesh(X, mesh.faces), lat, cpu=c)
 
 
@@ -174,11 +179,9 @@ def test_constraints_follow_the_move(precision):
     mesh = vpffd.shapes.icosphere(3)
     lat = _lattice()
     P = edit(lat)
-    g = gpu_deformer(mesh, lat, precision)
-    c = vpffd.Deformer(mesh, lat, backend="serial")
+    g, c = _pair(mesh, lat, precision)
     X = mesh.vertices * 0.9 + [0.6, -0.4, 0.3]
-    g.set_rest_vertices(X)
-    c.set_rest_vertices(X)
+    _move_both(g, c, X)
     moved = _mesh(X, mesh.faces)
     cons = [(3, X[3] + [0.0, 0.0, 0.1]), (X[100] * 0.95, X[100] * 0.95 + [0.05, 0.0, 0.0])]
     for kw in (dict(constraints=cons, preserve_volume=False), dict(constraints=cons),
@@ -194,8 +197,7 @@ def test_outside_vertices_are_refused_like_the_cpu(precision):
     mesh = vpffd.shapes.icosphere(2)
     lat = _lattice()
     P = edit(lat)
-    g = gpu_deformer(mesh, lat, precision)
-    c = vpffd.Deformer(mesh, lat, backend="serial")
+    g, c = _pair(mesh, lat, precision)
     before = g.deform(P)
     X = mesh.vertices + [1.5, 0.0, 0.0]  # radius 1 around x = 1.5: x > 2 for some
     n_out = int((X[:, 0] > 2.0).sum())
@@ -253,12 +255,10 @@ def test_scattered_positions_exercise_the_cell_sort(precision):
     lat = _lattice(shape=(12, 12, 12), degree=3)
     P = edit(lat)
     rng = np.random.default_rng(7)
-    g = gpu_deformer(mesh, lat, precision)
-    c = vpffd.Deformer(mesh, lat, backend="serial")
+    g, c = _pair(mesh, lat, precision)
     for _ in range(2):
         X = rng.uniform(-1.9, 1.9, mesh.vertices.shape)
-        g.set_rest_vertices(X)
-        c.set_rest_vertices(X)
+        _move_both(g, c, X)
         moved = _mesh(X, mesh.faces)
         for kw in (dict(preserve_volume=False), dict(target_volume=c.rest_volume + 0.5), dict(axes="yz", rounds=2,
                                                                                           target_volume=1.0)):
