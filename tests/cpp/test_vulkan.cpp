@@ -6,6 +6,7 @@
 #include <memory>
 #include <thread>
 
+#include "helpers.h"
 #include "vpffd/vpffd.h"
 
 #ifdef VPFFD_HAS_VULKAN
@@ -466,10 +467,7 @@ TEST_P(VulkanP, ThreadsGetTheirOwnFrames) {
 //   e_n = e_fu |F_v| + |F_u| e_fv + e_fu e_fv + 4 u F_u~ F_v~,  angle <= asin(e_n / |n|) + 4 u.
 TEST_P(VulkanP, MultiresFrameOfAnAffineMap) {
   Scene s = sphere(3, 3, {5, 5, 5});
-  for (Index i = 0; i < s.V.rows(); ++i) {
-    const Vector3d n = s.V.row(i).normalized();
-    s.V.row(i) = (n * (1.0 + 0.05 * std::sin(7 * n.x()) * std::sin(7 * n.y()) * std::sin(7 * n.z()))).transpose();
-  }
+  s.V = vpffd::test::bumpy(3).V;  // the same icosphere(3), with bumps
   auto mr = std::make_shared<Multires>(decompose(s.V, s.F, 3.0));
   vulkan::VulkanMultires gpu(mr, s.L, "", GetParam());
   EXPECT_EQ(gpu.precision(), GetParam());
@@ -554,10 +552,7 @@ TEST_P(VulkanP, MultiresFrameOfAnAffineMap) {
 // standalone frame uploads: fl((P - o) / scale) on both sides).
 TEST_P(VulkanP, MultiresAfterDeformerFrame) {
   Scene s = sphere(3, 3, {5, 5, 5});
-  for (Index i = 0; i < s.V.rows(); ++i) {
-    const Vector3d n = s.V.row(i).normalized();
-    s.V.row(i) = (n * (1.0 + 0.05 * std::sin(7 * n.x()) * std::sin(7 * n.y()) * std::sin(7 * n.z()))).transpose();
-  }
+  s.V = vpffd::test::bumpy(3).V;  // the same icosphere(3), with bumps
   auto mr = std::make_shared<Multires>(decompose(s.V, s.F, 3.0));
   vulkan::VulkanMultires gpu(mr, s.L, "", GetParam());
   vulkan::VulkanDeformer base(mr->base, s.F, s.L, OutsidePolicy::Error, "", GetParam());
