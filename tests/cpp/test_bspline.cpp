@@ -98,3 +98,64 @@ TEST(BSpline, BadKnotsAreRejected) {
     EXPECT_NE(std::string(e.what()).find("along y"), std::string::npos) << e.what();
   }
 }
+
+TEST(BSpline, SpanLocatorFindsFindSpansSpan) {
+  // The locator guesses from the mean span length and steps: on random knots (repeated
+  // interior knots, spans of very different lengths) it must still give find_span's
+  // span for every parameter, at and next to every knot, outside the domain and at its ends.
+  std::mt19937 rng(11);
+  for (int d = 1; d <= 4; ++d)
+    for (int trial = 0; trial < 20; ++trial) {
+      const int n = d + 1 + static_cast<int>(rng() % 9);
+      const std::vector<double> t = trial == 0 ? clamped_uniform_knots(n, d) : random_knots(n, d, rng);
+      const SpanLocator locate(t, n, d);
+      std::vector<double> us = {-1.0, -1e-300, 2.0, std::nextafter(1.0, 2.0)};
+      for (double k : t) us.insert(us.end(), {k, std::nextafter(k, -1.0), std::nextafter(k, 2.0)});
+      std::uniform_real_distribution<double> U(-0.1, 1.1);
+      for (int i = 0; i < 200; ++i) us.push_back(U(rng));
+      for (double u : us) {
+        const int s = locate(u);
+        ASSERT_EQ(s, find_span(t, n, d, u)) << "d " << d << " trial " << trial << " u " << u;
+        if (u >= t[d] && u < t[n]) EXPECT_EQ(locate.local(u, s) >= 0.0 && locate.local(u, s) < 1.0 + 1e-15, true);
+      }
+    }
+}
+
+TEST(BSpline, EmbeddingInAGivenOrderIsTheEmbeddingPermuted) {
+  const TriMesh m = icosphere(2);
+  const Lattice L = test::lattice_around(m.V, {5, 6, 7}, 3, 0.1);
+  std::vector<std::int32_t> order(m.V.rows());
+  for (Index i = 0; i < m.V.rows(); ++i) order[i] = static_cast<std::int32_t>((i * 37) % m.V.rows());
+  const Embedding E = embed(L, m.V, OutsidePolicy::Error);
+  Embedding Eo;
+  embed_into(L, m.V, OutsidePolicy::Error, Eo, 2, "vertex", order.data());
+  for (int a = 0; a < 3; ++a)
+    for (Index i = 0; i < m.V.rows(); ++i) {
+      ASSERT_EQ(Eo.span[a][i], E.span[a][order[i]]);
+      ASSERT_EQ(Eo.tau[a][i], E.tau[a][order[i]]);
+    }
+  // Errors name the outside vertex of lowest index whatever the order; Eo is reused.
+  RowMatrixX3d X = m.V;
+  X(40, 0) = X(7, 1) = 1e3;
+  std::string plain, ordered;
+  try {
+    embed(L, X, OutsidePolicy::Error);
+  } catch (const InvalidInputError& e) {
+    plain = e.what();
+  }
+  try {
+    embed_into(L, X, OutsidePolicy::Error, Eo, 2, "vertex", order.data());
+  } catch (const InvalidInputError& e) {
+    ordered = e.what();
+  }
+  EXPECT_NE(plain.find("2 vertices lie outside"), std::string::npos) << plain;
+  EXPECT_NE(plain.find("the first is vertex 7 at"), std::string::npos) << plain;
+  EXPECT_EQ(ordered, plain);
+  X(7, 1) = std::nan("");
+  try {
+    embed_into(L, X, OutsidePolicy::Error, Eo, 1, "vertex", order.data());
+    ADD_FAILURE() << "a NaN vertex was embedded";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("vertex 7 is not finite"), std::string::npos) << e.what();
+  }
+}

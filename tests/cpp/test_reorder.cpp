@@ -1,4 +1,4 @@
-// Carrying faces and fans from one processing order to the next (ffd/reorder.h), and
+// Carrying fans and rings from one processing order to the next (ffd/reorder.h), and
 // the shortcuts of Deformer::set_rest_vertices built on them: every result must be
 // that of a fresh Deformer on the moved mesh, bit for bit.
 
@@ -19,15 +19,6 @@ std::vector<std::int32_t> random_order(Index n, std::mt19937& rng) {
   std::iota(o.begin(), o.end(), 0);
   std::shuffle(o.begin(), o.end(), rng);
   return o;
-}
-
-/// face_order + renumbering, as the first embedding computes them.
-void sorted_faces(const RowMatrixX3i& F, const std::vector<std::int32_t>& rank, std::vector<std::int32_t>& forder,
-                  RowMatrixX3i& Fs) {
-  forder = face_order(F, rank);
-  Fs.resize(F.rows(), 3);
-  for (Index f = 0; f < F.rows(); ++f)
-    for (int c = 0; c < 3; ++c) Fs(f, c) = rank[F(forder[f], c)];
 }
 
 /// The same mesh moved: every vertex by `d`, plus a small wobble (amplitude `wobble`).
@@ -64,42 +55,6 @@ void expect_same_deformer(const Deformer& D, const Deformer& fresh, const RowMat
 }
 
 }  // namespace
-
-TEST(Reorder, FacesFromThePreviousOrderEqualASort) {
-  std::mt19937 rng(7);
-  TriMesh m = icosphere(3);
-  // Degenerate faces (a repeated corner) and duplicated faces are allowed in a mesh:
-  // ties and repeats must come out in face_order's order too.
-  m.F.conservativeResize(m.F.rows() + 3, 3);
-  m.F.row(m.F.rows() - 3) << 4, 4, 9;
-  m.F.row(m.F.rows() - 2) << 7, 8, 7;
-  m.F.row(m.F.rows() - 1) = m.F.row(10);
-  const Index nv = m.V.rows();
-  std::vector<std::int32_t> order = random_order(nv, rng), rank = inverse_order(order);
-  std::vector<std::int32_t> forder;
-  RowMatrixX3i Fs;
-  sorted_faces(m.F, rank, forder, Fs);
-  for (int move = 0; move < 4; ++move) {
-    // A random new order, then one that differs from it by a few swaps (a small move).
-    std::vector<std::int32_t> next = random_order(nv, rng);
-    if (move % 2 == 1) {
-      next = order;
-      for (int k = 0; k < 5; ++k) std::swap(next[rng() % nv], next[rng() % nv]);
-    }
-    const std::vector<std::int32_t> next_rank = inverse_order(next);
-    std::vector<std::int32_t> to(nv);
-    for (Index j = 0; j < nv; ++j) to[j] = next_rank[order[j]];
-    std::vector<std::int32_t> got_order, want_order;
-    RowMatrixX3i got, want;
-    reorder_faces(Fs, forder, to, got_order, got, 2);
-    sorted_faces(m.F, next_rank, want_order, want);
-    EXPECT_EQ(got_order, want_order) << "move " << move;
-    EXPECT_EQ(got, want) << "move " << move;
-    order = next;
-    forder = got_order;
-    Fs = got;
-  }
-}
 
 TEST(Reorder, RelabelledFansComposeAndChainTheirRings) {
   std::mt19937 rng(3);

@@ -95,6 +95,51 @@ inline int find_span(const std::vector<double>& t, int n, int d, double u) {
   return static_cast<int>(it - t.begin()) - 1;
 }
 
+/// find_span for many parameters on one knot vector: a guess from the mean span
+/// length, then steps to the neighbouring knots until t_s <= u < t_{s+1}. The same
+/// span as find_span for every u (the last s with t_s <= u), found in one or two
+/// predictable comparisons on uniform knots instead of a binary search whose
+/// branches a CPU cannot predict (embedding a mesh is a per-vertex loop of them).
+struct SpanLocator {
+  const double* t;
+  int n, d;
+  double lo, hi, steps_per_unit;
+  std::vector<double> inv_length;  ///< per span s, 1 / (t_{s+1} - t_s) (0 for an empty span)
+
+  SpanLocator(const std::vector<double>& knots, int n_, int d_)
+      : t(knots.data()), n(n_), d(d_), lo(knots[d_]), hi(knots[n_]), steps_per_unit((n_ - d_) / (hi - lo)),
+        inv_length(knots.size(), 0.0) {
+    for (size_t s = 0; s + 1 < knots.size(); ++s)
+      if (knots[s + 1] > knots[s]) inv_length[s] = 1.0 / (knots[s + 1] - knots[s]);
+  }
+
+  /// The local parameter of u in span s: (u - t_s) / (t_{s+1} - t_s), as a multiply.
+  double local(double u, int s) const { return (u - t[s]) * inv_length[s]; }
+
+  int operator()(double u) const {
+    // Outside [t_d, t_n) (ends, extrapolation, NaN): find_span's end rules.
+    if (!(u >= lo && u < hi)) return end_span(u);
+    int s = d + static_cast<int>((u - lo) * steps_per_unit);
+    s = s < d ? d : (s > n - 1 ? n - 1 : s);
+    while (t[s] > u) --s;       // stops at d: t_d = lo <= u
+    while (t[s + 1] <= u) ++s;  // stops below n: t_n = hi > u
+    return s;
+  }
+
+ private:
+  int end_span(double u) const {
+    int s;
+    if (u >= hi) {
+      s = n - 1;
+      while (t[s] == t[s + 1]) --s;
+    } else {
+      s = d;
+      while (t[s] == t[s + 1]) ++s;
+    }
+    return s;
+  }
+};
+
 /// Greville abscissae g_i = (t_{i+1} + ... + t_{i+d}) / d, i = 0..n-1. Control
 /// points placed at the Greville abscissae make the B-spline the identity map.
 inline std::vector<double> greville(const std::vector<double>& t, int n, int d) {

@@ -29,12 +29,15 @@ inline std::vector<std::int32_t> counting_sort(const std::vector<std::int32_t>& 
 }
 
 /// Stable counting sort of the points by their cell.
+/// @param held  if not null, E's entry i is point (*held)[i] (an embedding kept in a
+///              previous processing order); the order is the same as for E in point order
 /// @returns order: processing position -> original index
-inline std::vector<std::int32_t> cell_order(const BasisTables& T, const Embedding& E, int threads = 1) {
+inline std::vector<std::int32_t> cell_order(const BasisTables& T, const Embedding& E, int threads = 1,
+                                            const std::vector<std::int32_t>* held = nullptr) {
   const Index n = E.size();
   std::vector<std::int32_t> cell(n);
   parallel_range(n, threads, [&](Index b, Index e) {
-    for (Index v = b; v < e; ++v) cell[v] = detail::cell_index(T, E, v);
+    for (Index i = b; i < e; ++i) cell[held ? Index((*held)[i]) : i] = detail::cell_index(T, E, i);
   });
   return counting_sort(cell, Index(T.dims[0]) * T.dims[1] * T.dims[2]);
 }
@@ -48,9 +51,10 @@ inline std::vector<std::int32_t> inverse_order(const std::vector<std::int32_t>& 
   return rank;
 }
 
-/// out[i] = E[order[i]] (order: new position -> old index).
-inline Embedding permute_embedding(const Embedding& E, const std::vector<std::int32_t>& order, int threads = 1) {
-  Embedding out;
+/// out[i] = E[order[i]] (order: new position -> old index); out's buffers are
+/// reused when they have the size already.
+inline void permute_embedding_into(const Embedding& E, const std::vector<std::int32_t>& order, Embedding& out,
+                                   int threads = 1) {
   for (int a = 0; a < 3; ++a) {
     out.span[a].resize(order.size());
     out.tau[a].resize(order.size());
@@ -62,17 +66,13 @@ inline Embedding permute_embedding(const Embedding& E, const std::vector<std::in
         out.tau[a][i] = E.tau[a][order[i]];
       }
   });
-  return out;
 }
 
-/// Faces sorted (stably) by their lowest vertex position under `rank`.
-/// @returns order: processing position -> face index
-inline std::vector<std::int32_t> face_order(const Eigen::Ref<const RowMatrixX3i>& F,
-                                            const std::vector<std::int32_t>& rank) {
-  const Index nf = F.rows();
-  std::vector<std::int32_t> key(nf);
-  for (Index f = 0; f < nf; ++f) key[f] = std::min({rank[F(f, 0)], rank[F(f, 1)], rank[F(f, 2)]});
-  return counting_sort(key, static_cast<Index>(rank.size()));
+/// permute_embedding_into a new Embedding.
+inline Embedding permute_embedding(const Embedding& E, const std::vector<std::int32_t>& order, int threads = 1) {
+  Embedding out;
+  permute_embedding_into(E, order, out, threads);
+  return out;
 }
 
 }  // namespace vpffd

@@ -41,7 +41,6 @@
 
 namespace vpffd {
 
-
 class Deformer {
  public:
   /// Embeds the mesh (V, F) in lattice L.
@@ -69,6 +68,7 @@ class Deformer {
     tables_ = basis_tables(lattice_);
     edges_ = edge_report(F_);
     origin_ = 0.5 * (lattice_.box_min + lattice_.box_max);
+    set_face_order();
     embed_rest(V, threads, "Deformer");
   }
 
@@ -153,7 +153,8 @@ class Deformer {
   /// vertex and face orders, the faces (as given and renumbered), the vertex
   /// fans (closed mesh, ~32) or rings (open, ~52), the cell runs, the rest vertices
   /// and, once built, the vertex-face lists (about 185 bytes for a closed mesh,
-  /// F = 2V, with the lists; 28 less without).
+  /// F = 2V, with the lists; 28 less without); 36 more once the rest mesh has moved
+  /// (the next embedding's buffers).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size()) * per_int;
@@ -163,7 +164,7 @@ class Deformer {
       if (adjacency_) bytes += double(adjacency_->indptr.size() + adjacency_->faces.size()) * per_int;
     }
     bytes += double(rings_.indptr.size() + rings_.pairs.size() + fans_.indptr.size() + fans_.fan.size()) * per_int;
-    bytes += double(n_vertices()) * Embedding::bytes_per_point;
+    bytes += double(n_vertices() + spare_embedding_.size()) * Embedding::bytes_per_point;
     bytes += double(runs_.start.size()) * sizeof(Index) + double(3 * runs_.size()) * per_int;
     return bytes / double(n_vertices());
   }
@@ -261,9 +262,13 @@ class Deformer {
   /// aside and then swapped in, so a throw leaves the Deformer as it was.
   void embed_rest(const Eigen::Ref<const RowMatrixX3d>& V, int threads, const char* where) {
     const Index nv = V.rows();
-    Embedding E;
+    const bool moving = !order_.empty();
+    // A move embeds straight into the current processing order (a row of V read per
+    // vertex, where permuting an embedding reads six arrays at random), into the
+    // spare buffers: nothing of the Deformer changes until the checks have passed.
+    Embedding& E = spare_embedding_;
     try {
-      E = embed(lattice_, V, policy_, threads);
+      embed_into(lattice_, V, policy_, E, threads, "vertex", moving ? order_.data() : nullptr);
     } catch (const InvalidInputError& e) {
       throw InvalidInputError(std::string(where) + ": " + e.what() + parts_outside(V));
     }
@@ -273,9 +278,15 @@ class Deformer {
     VPFFD_CHECK(std::isfinite(rest_volume), where, ": the mesh's enclosed volume overflows double precision (",
                 rest_volume, "; coordinates up to ", V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
     // Nothing below throws: the Deformer's state is replaced from here on.
+    V_ = V;
+    rest_volume_ = rest_volume;
+    {
+      std::lock_guard<std::mutex> lock(face_matrix_mutex_);
+      face_matrix_.reset();  // built from the old embedding
+    }
     // Frames run in cell order (vertex_order.h); the faces are renumbered to match
     // and reordered too (below), so face sums round differently from unsorted ones.
-    std::vector<std::int32_t> order = cell_order(tables_, E, threads);
+    std::vector<std::int32_t> order = cell_order(tables_, E, threads, moving ? &order_ : nullptr);
     const int K = parts_.count;
     std::vector<Index> part_start(K + 1, 0);
     if (has_parts_) {
@@ -292,35 +303,20 @@ class Deformer {
     } else {
       part_start[1] = nv;
     }
-    // Along a "shift" seam a wrapped vertex maps to D(wrapped) + its translation
-    // (lattice/periodic.h), kept per vertex in processing order.
-    seam_shift_.resize(0, 3);
-    {
-      const RowMatrixX3d T = seam_translations(lattice_, V);
-      if (T.rows() > 0) {
-        seam_shift_.resize(T.rows(), 3);
-        for (Index i = 0; i < T.rows(); ++i) seam_shift_.row(i) = T.row(order[i]);
-      }
-    }
-    embedding_ = permute_embedding(E, order, threads);
-    runs_ = cell_runs(embedding_);
-    V_ = V;
-    rest_volume_ = rest_volume;
-    {
-      std::lock_guard<std::mutex> lock(face_matrix_mutex_);
-      face_matrix_.reset();  // built from the old embedding
-    }
     // A moved object often keeps its processing order (no vertex changed cell, or all
-    // its vertices moved together): then the faces and fans are those it has.
+    // its vertices moved together): then the embedding, faces and fans are those it has.
     if (order == order_) {
+      std::swap(embedding_, E);
+      runs_ = cell_runs(embedding_);
+      set_seam_shifts(V);
       if (has_parts_) rest_part_volumes_ = part_volumes_in_order(threads);
       return;
     }
     std::vector<std::int32_t> rank = inverse_order(order, threads);
-    // A move carries the faces and fans of the previous order over (reorder.h):
-    // old position -> new position, and new position -> old position.
+    // A move carries the embedding, faces and fans of the previous order over
+    // (reorder.h): old position -> new position, and new position -> old position.
     std::vector<std::int32_t> old_to_new, new_to_old;
-    if (!order_.empty()) {
+    if (moving) {
       old_to_new.resize(nv);
       new_to_old.resize(nv);
       parallel_range(nv, threads, [&](Index b, Index e) {
@@ -330,33 +326,26 @@ class Deformer {
         }
       });
     }
-    // Faces follow their lowest vertex in processing order, so the face pass and
-    // the per-vertex face sums stay local too (and each part's faces are together).
-    std::vector<std::int32_t> forder;
-    RowMatrixX3i Fs;
-    if (order_.empty()) {
-      forder = face_order(F_, rank);
-      Fs.resize(F_.rows(), 3);
-      parallel_range(F_.rows(), threads, [&](Index b, Index e) {
-        for (Index f = b; f < e; ++f)
-          for (int c = 0; c < 3; ++c) Fs(f, c) = rank[F_(forder[f], c)];
-      });
-    } else {
-      reorder_faces(Fs_, face_order_, old_to_new, forder, Fs, threads);
-    }
-    std::vector<Index> face_start(K + 1, 0);
-    if (has_parts_) {
-      for (Index f = 0; f < Fs.rows(); ++f) ++face_start[parts_.vertex_part[F_(forder[f], 0)] + 1];
-      for (int k = 0; k < K; ++k) face_start[k + 1] += face_start[k];
-    } else {
-      face_start[1] = Fs.rows();
-    }
+    // E's entry i is vertex order_[i] after a move, vertex i for a new mesh.
+    permute_embedding_into(E, moving ? new_to_old : order, embedding_, threads);
+    if (!moving) E = Embedding();  // kept only by a Deformer that moves
+    runs_ = cell_runs(embedding_);
+    // The faces keep the mesh's order (each part's together, set in the constructor),
+    // renumbered by processing position. Sorting them by their lowest vertex's position
+    // made no face pass faster (measured, 1 thread, a face pass over cell-sorted
+    // vertices: 163k-vertex icosphere 1.35 ms sorted against 1.25 unsorted, dragon
+    // 3.76 against 3.95), and a fixed order needs no re-sort when the rest mesh moves.
+    Fs_.resize(F_.rows(), 3);
+    parallel_range(F_.rows(), threads, [&](Index b, Index e) {
+      for (Index f = b; f < e; ++f)
+        for (int c = 0; c < 3; ++c) Fs_(f, c) = rank[F_(face_order_[f], c)];
+    });
     // A closed mesh's weights come from the fans (half the reads); an open one's
     // cone weights need the pairs (VertexFans' separators add zero only with b = p_v).
     // Both are built once, in the mesh's own numbering (from F_ in its face order, so
     // the terms of a weight come in an order no move changes), and relabelled into
     // each processing order.
-    if (order_.empty()) {
+    if (!moving) {
       if (is_closed())
         fans_ = permute_fans(vertex_fans(vertex_rings(F_, nv)), order, rank, threads);
       else
@@ -368,15 +357,41 @@ class Deformer {
     }
     order_.swap(order);
     rank_.swap(rank);
-    face_order_.swap(forder);
-    Fs_ = std::move(Fs);
+    set_seam_shifts(V);
     part_start_.swap(part_start);
-    face_start_.swap(face_start);
     {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       adjacency_.reset();  // of the old faces' numbering
     }
     if (has_parts_) rest_part_volumes_ = part_volumes_in_order(threads);
+  }
+
+  /// The faces' processing order: the mesh's own, each part's faces together
+  /// (a stable sort by part), so a part's face sums are one range of them.
+  void set_face_order() {
+    const Index nf = F_.rows();
+    face_start_.assign(parts_.count + 1, 0);
+    if (!has_parts_) {
+      face_order_.resize(nf);
+      for (Index f = 0; f < nf; ++f) face_order_[f] = static_cast<std::int32_t>(f);
+      face_start_[1] = nf;
+      return;
+    }
+    std::vector<std::int32_t> key(nf);
+    for (Index f = 0; f < nf; ++f) key[f] = parts_.vertex_part[F_(f, 0)];
+    face_order_ = counting_sort(key, parts_.count);
+    for (Index f = 0; f < nf; ++f) ++face_start_[key[f] + 1];
+    for (int k = 0; k < parts_.count; ++k) face_start_[k + 1] += face_start_[k];
+  }
+
+  /// Along a "shift" seam a wrapped vertex maps to D(wrapped) + its translation
+  /// (lattice/periodic.h), kept per vertex in processing order (order_).
+  void set_seam_shifts(const Eigen::Ref<const RowMatrixX3d>& V) {
+    seam_shift_.resize(0, 3);
+    const RowMatrixX3d T = seam_translations(lattice_, V);
+    if (T.rows() == 0) return;
+    seam_shift_.resize(T.rows(), 3);
+    for (Index i = 0; i < T.rows(); ++i) seam_shift_.row(i) = T.row(order_[i]);
   }
 
   /// Each part's rest volume, summed over its faces in processing order.
@@ -511,8 +526,9 @@ class Deformer {
   BasisTables tables_;
   std::vector<std::int32_t> order_;  ///< processing position -> vertex
   std::vector<std::int32_t> rank_;   ///< vertex -> processing position
-  std::vector<std::int32_t> face_order_;  ///< face processing position -> face
+  std::vector<std::int32_t> face_order_;  ///< face processing position -> face (fixed: set_face_order)
   Embedding embedding_;              ///< in processing order
+  Embedding spare_embedding_;        ///< set_rest_vertices' buffers for the next embedding
   CellRuns runs_;                    ///< embedding_'s cell runs
   RowMatrixX3i Fs_;                  ///< faces with processing-order indices
   EdgeReport edges_;
@@ -525,7 +541,7 @@ class Deformer {
   bool has_parts_ = false;
   MeshParts parts_;                  ///< count 1 and no labels without parts
   std::vector<Index> part_start_;    ///< K + 1: each part's vertices in processing order
-  std::vector<Index> face_start_;    ///< K + 1: each part's faces in Fs_
+  std::vector<Index> face_start_;    ///< K + 1: each part's faces in Fs_ (fixed: set_face_order)
   VectorXd rest_part_volumes_;       ///< K, with parts
   mutable std::mutex face_matrix_mutex_;
   mutable std::unique_ptr<CsrMatrix> face_matrix_;

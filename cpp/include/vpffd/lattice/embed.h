@@ -57,70 +57,94 @@ inline BasisTables basis_tables(const Lattice& L) {
   return T;
 }
 
-/// Embeds the rows of X (#X x 3 world points).
-/// @param what  name used in error messages ("vertex", "point")
+/// Embeds the rows of X (#X x 3 world points) into E (resized to #X; its buffers
+/// are reused when they have that size already, as a moving mesh's do).
+/// @param what   name used in error messages ("vertex", "point")
+/// @param order  if not null, #X row indices: entry i of E embeds row order[i] (a
+///               mesh embedded straight into its processing order)
 /// @throws InvalidInputError for non-finite points, or points outside the box
-///         when `policy` is Error (the message names the first one and the count).
-inline Embedding embed(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X, OutsidePolicy policy,
-                       int threads = 0, const char* what = "vertex") {
+///         when `policy` is Error (the message names the count and the one of
+///         lowest row index, whatever `order`).
+inline void embed_into(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X, OutsidePolicy policy, Embedding& E,
+                       int threads = 0, const char* what = "vertex", const std::int32_t* order = nullptr) {
   const Index n = X.rows();
-  Embedding E;
   for (int a = 0; a < 3; ++a) {
     E.span[a].resize(n);
     E.tau[a].resize(n);
   }
-  // Rounding in the box computation must not throw out points on its faces.
-  Vector3d tol;
-  for (int a = 0; a < 3; ++a) tol[a] = 1e-12 * (L.box_max[a] - L.box_min[a]);
-  const bool periodic = L.any_periodic();
+  // Per-axis constants in locals: read through L inside the loop they would be
+  // reloaded after every store (the stores could alias them, as far as the compiler knows).
+  double in_lo[3], in_hi[3], dom_lo[3], dom_hi[3], far_lo[3], far_hi[3];
+  for (int a = 0; a < 3; ++a) {
+    // Rounding in the box computation must not throw out points on its faces.
+    const double tol = 1e-12 * (L.box_max[a] - L.box_min[a]);
+    in_lo[a] = L.box_min[a] - tol;
+    in_hi[a] = L.box_max[a] + tol;
+    dom_lo[a] = L.domain_lo(a);
+    dom_hi[a] = L.domain_hi(a);
+    // Extrapolated polynomial pieces grow as distance^degree: a thousand box
+    // extents away they are no deformation anyone wants, and further away they
+    // overflow. Such points are refused with the non-finite ones.
+    far_lo[a] = dom_lo[a] - 1e3 * (dom_hi[a] - dom_lo[a]);
+    far_hi[a] = dom_hi[a] + 1e3 * (dom_hi[a] - dom_lo[a]);
+  }
+  const SpanLocator locate[3] = {{L.knots[0], L.dim(0), L.degree[0]},
+                                 {L.knots[1], L.dim(1), L.degree[1]},
+                                 {L.knots[2], L.dim(2), L.degree[2]}};
+  const ParameterMap to_parameter(L);
+  const bool periodic = L.any_periodic(), clamp = policy == OutsidePolicy::Error;
   const int chunks = chunk_count(n);
   std::vector<Index> first_bad(chunks, -1), n_bad(chunks, 0), first_nan(chunks, -1);
   parallel_chunks(n, chunks, threads, [&](int c, Index b, Index e) {
+    std::int32_t* __restrict span[3] = {E.span[0].data(), E.span[1].data(), E.span[2].data()};
+    double* __restrict tau[3] = {E.tau[0].data(), E.tau[1].data(), E.tau[2].data()};
+    // The lowest row index among this chunk's failures (the message names it).
+    auto note = [](Index& first, Index row) { first = first < 0 ? row : std::min(first, row); };
     for (Index v = b; v < e; ++v) {
+      const Index row = order ? Index(order[v]) : v;
       // Periodic axes have no outside: the point is wrapped into the box.
-      const Vector3d x = periodic ? wrap_point(L, X.row(v).transpose()) : Vector3d(X.row(v).transpose());
+      const Vector3d x = periodic ? wrap_point(L, X.row(row).transpose()) : Vector3d(X.row(row).transpose());
       if (!x.allFinite()) {
-        if (first_nan[c] < 0) first_nan[c] = v;
+        note(first_nan[c], row);
         continue;
       }
-      bool outside = false;
-      for (int a = 0; a < 3; ++a)
-        outside |= x[a] < L.box_min[a] - tol[a] || x[a] > L.box_max[a] + tol[a];
+      // x is finite, so u is not NaN, and an infinite u is too far.
+      const Vector3d u = to_parameter(x);
+      bool outside = false, too_far = false;
+      for (int a = 0; a < 3; ++a) {
+        outside |= x[a] < in_lo[a] || x[a] > in_hi[a];
+        too_far |= u[a] < far_lo[a] || u[a] > far_hi[a];
+      }
       if (outside) {
-        if (first_bad[c] < 0) first_bad[c] = v;
+        note(first_bad[c], row);
         ++n_bad[c];
       }
-      const Vector3d u = parameter_of(L, x);
-      // Extrapolated polynomial pieces grow as distance^degree: a thousand box
-      // extents away they are no deformation anyone wants, and further away they
-      // overflow. Such points are refused with the non-finite ones.
-      bool too_far = !u.allFinite();
-      for (int a = 0; a < 3 && !too_far; ++a) {
-        const double w = L.domain_hi(a) - L.domain_lo(a);
-        too_far = u[a] < L.domain_lo(a) - 1e3 * w || u[a] > L.domain_hi(a) + 1e3 * w;
-      }
       if (too_far) {
-        if (first_nan[c] < 0) first_nan[c] = v;
+        note(first_nan[c], row);
         continue;
       }
       for (int a = 0; a < 3; ++a) {
-        double ua = u[a];
-        if (policy == OutsidePolicy::Error) ua = std::clamp(ua, L.domain_lo(a), L.domain_hi(a));
-        const int s = find_span(L.knots[a], L.dim(a), L.degree[a], ua);
-        E.span[a][v] = s;
-        E.tau[a][v] = (ua - L.knots[a][s]) / (L.knots[a][s + 1] - L.knots[a][s]);
+        const double ua = clamp ? std::clamp(u[a], dom_lo[a], dom_hi[a]) : u[a];
+        const int s = locate[a](ua);
+        span[a][v] = s;
+        tau[a][v] = locate[a].local(ua, s);
       }
     }
   });
-  for (int c = 0; c < chunks; ++c)
-    VPFFD_CHECK(first_nan[c] < 0, "embed: ", what, " ", first_nan[c],
-                " is not finite, or too far from the lattice (over 1000 box extents)");
+  // The lowest row index over the chunks (with `order` the chunks are not in row order).
+  auto lowest = [&](const std::vector<Index>& per_chunk) {
+    Index first = -1;
+    for (Index f : per_chunk)
+      if (f >= 0 && (first < 0 || f < first)) first = f;
+    return first;
+  };
+  const Index bad_point = lowest(first_nan);
+  VPFFD_CHECK(bad_point < 0, "embed: ", what, " ", bad_point,
+              " is not finite, or too far from the lattice (over 1000 box extents)");
   if (policy == OutsidePolicy::Error) {
-    Index total = 0, first = -1;
-    for (int c = 0; c < chunks; ++c) {
-      total += n_bad[c];
-      if (first < 0 && first_bad[c] >= 0) first = first_bad[c];
-    }
+    Index total = 0;
+    for (int c = 0; c < chunks; ++c) total += n_bad[c];
+    const Index first = lowest(first_bad);
     if (total > 0) {
       const Vector3d x = X.row(first).transpose();
       const std::string noun = total == 1 ? std::string(what) + " lies"
@@ -133,6 +157,13 @@ inline Embedding embed(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X
           "); enlarge the lattice (padding) or pass outside='extrapolate'"));
     }
   }
+}
+
+/// embed_into a new Embedding.
+inline Embedding embed(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X, OutsidePolicy policy,
+                       int threads = 0, const char* what = "vertex") {
+  Embedding E;
+  embed_into(L, X, policy, E, threads, what);
   return E;
 }
 

@@ -118,15 +118,23 @@ inline Lattice make_lattice(const Vector3d& box_min, const Vector3d& box_max, st
   return L;
 }
 
-/// Parameter (u, v, w) of a world point: the affine map of the box onto the domain.
-inline Vector3d parameter_of(const Lattice& L, const Vector3d& x) {
-  Vector3d u;
-  for (int a = 0; a < 3; ++a) {
-    const double lo = L.domain_lo(a), hi = L.domain_hi(a);
-    u[a] = lo + (x[a] - L.box_min[a]) / (L.box_max[a] - L.box_min[a]) * (hi - lo);
+/// The affine map of the box onto the parameter domain, u = lo + (x - box_min) k per
+/// axis with k = (domain length) / (box extent): built once for a loop over many
+/// points (a multiply where a division per coordinate would bound the loop).
+struct ParameterMap {
+  Vector3d lo, box_min, k;
+  explicit ParameterMap(const Lattice& L) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = L.domain_lo(a);
+      box_min[a] = L.box_min[a];
+      k[a] = (L.domain_hi(a) - L.domain_lo(a)) / (L.box_max[a] - L.box_min[a]);
+    }
   }
-  return u;
-}
+  Vector3d operator()(const Vector3d& x) const { return lo + ((x - box_min).array() * k.array()).matrix(); }
+};
+
+/// Parameter (u, v, w) of a world point (ParameterMap, for one point).
+inline Vector3d parameter_of(const Lattice& L, const Vector3d& x) { return ParameterMap(L)(x); }
 
 /// The rest (identity) control points: each at the world image of its Greville
 /// abscissae, so that the undeformed FFD maps every point exactly onto itself
