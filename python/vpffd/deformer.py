@@ -190,10 +190,10 @@ class Deformer:
         """Moves the rest mesh: the next frame deforms ``vertices`` (V, 3) (same faces)
         exactly as a Deformer built on that mesh would: new embedding, processing
         order and rest volume(s), so an object can travel through the lattice frame
-        by frame. On the CPU it costs the embedding, a counting sort by cell, and
-        carrying the renumbered faces and vertex fans over from the previous order
-        (nothing of these when no vertex changed its cell): a few plain FFD frames,
-        below one volume-preserving frame. On "vulkan" only the vertices go to the
+        by frame. On the CPU it costs the embedding (straight into the processing
+        order), a counting sort by cell, renumbering the faces and carrying the vertex
+        fans over from the previous order (nothing of these when no vertex changed its
+        cell): about two plain FFD frames, half a volume-preserving one. On "vulkan" only the vertices go to the
         device, which embeds them and sorts them by lattice cell itself (the rest
         volume is summed on the host in float64); the result equals a Vulkan Deformer
         built on the moved mesh within the backend's float32 tolerance

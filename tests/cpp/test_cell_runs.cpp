@@ -117,6 +117,18 @@ TEST(CellRuns, KernelsEqualPerPointKernels) {
           detail::ffd_runs<k>(T, E, p.runs, Px.data(), Py.data(), Pz.data(), c.data(), cuts[q], cuts[q + 1]);
         EXPECT_LE((a - b).cwiseAbs().maxCoeff(), tol);
         EXPECT_EQ((b - c).cwiseAbs().maxCoeff(), 0.0);
+        // Written straight into the caller's order: the same rows, bit for bit, moved.
+        std::vector<std::int32_t> order(n);
+        for (Index i = 0; i < n; ++i) order[i] = static_cast<std::int32_t>((i * 7919) % n);  // a permutation (n prime)
+        RowMatrixX3d ra(n, 3), rb(n, 3);
+        detail::ffd_kernel<k>(T, E, Px.data(), Py.data(), Pz.data(), ra.data(), 0, n, order.data());
+        for (size_t q = 0; q + 1 < cuts.size(); ++q)
+          detail::ffd_runs<k>(T, E, p.runs, Px.data(), Py.data(), Pz.data(), rb.data(), cuts[q], cuts[q + 1],
+                              order.data());
+        for (Index i = 0; i < n; ++i) {
+          ASSERT_EQ(ra.row(order[i]), a.row(i)) << i;
+          ASSERT_EQ(rb.row(order[i]), b.row(i)) << i;
+        }
 
         RowMatrixX3d ga = a, gb = a, gc = a;
         detail::gather_kernel<k>(T, E, D.data(), ga.data(), 1, 0, n);
@@ -129,8 +141,6 @@ TEST(CellRuns, KernelsEqualPerPointKernels) {
         EXPECT_EQ((gb.col(2) - a.col(2)).cwiseAbs().maxCoeff(), 0.0);
 
         // The last gather: moved points in the caller's order and sum w (x - o).
-        std::vector<std::int32_t> order(n);
-        for (Index i = 0; i < n; ++i) order[i] = static_cast<std::int32_t>((i * 7919) % n);  // a permutation (n prime)
         VectorXd w(n);
         for (Index i = 0; i < n; ++i) w[i] = u(gen);
         RowMatrixX3d fa(n, 3), fb(n, 3);

@@ -564,3 +564,28 @@ TEST(Deformer, FactoredJacobianMatchesTripleLoop) {
     RecordProperty("worst_det_rel_deg" + std::to_string(d), std::to_string(worst_det));
   }
 }
+
+TEST(Deformer, UncorrectedFrameIsTheFfdInTheCallersOrder) {
+  // A frame that corrects nothing writes the FFD straight into the caller's order and
+  // sums its volume over the caller's faces: the same numbers as the FFD through the
+  // processing order and the volume over the renumbered faces, bit for bit.
+  const TriMesh m = icosphere(3);
+  const Lattice L = lattice_around(m.V, {6, 5, 7}, 3, 0.2);
+  const RowMatrixX3d P = twist(rest_control_points(L), 0.8, 2, 0.5 * (L.box_min + L.box_max));
+  const MeshParts one = parts_from_labels(m.F, std::vector<std::int64_t>(m.V.rows(), 0), m.V.rows());
+  for (const MeshParts* pp : {static_cast<const MeshParts*>(nullptr), &one}) {
+    const Deformer D(m.V, m.F, L, OutsidePolicy::Error, 2, pp);
+    CorrectionOptions o;
+    o.preserve_volume = false;
+    const DeformResult r = D.deform(P, o);
+    const RowMatrixX3d X = D.ffd(P);
+    EXPECT_EQ(r.vertices, X);
+    // The kernel's rows in processing order, then moved: the same bits.
+    const std::vector<std::int32_t>& order = D.processing_order();
+    RowMatrixX3d Xs(X.rows(), 3);
+    for (Index i = 0; i < X.rows(); ++i) Xs.row(i) = X.row(order[i]);
+    EXPECT_EQ(r.volume, signed_volume(Xs, D.processing_faces(), D.origin()));
+    EXPECT_EQ(r.volume, r.volume_before);
+    EXPECT_LE(std::abs(r.volume - signed_volume(X, m.F, D.origin())), 1e-15 * std::abs(r.volume));
+  }
+}

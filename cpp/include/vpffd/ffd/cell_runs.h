@@ -266,12 +266,12 @@ void eval_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, cons
   });
 }
 
-/// out[v] = sum_ijk B_ijk(u_v) P_ijk for v in [b, e) (ffd_kernel, run by run).
-/// eval_runs' loop written out for the three coordinates: with the lanes kept in
-/// registers to the stores it runs ~5 % faster than through eval_runs' callback.
+/// out[v] = sum_ijk B_ijk(u_v) P_ijk for v in [b, e) (ffd_kernel, run by run; `rows`
+/// as there). eval_runs' loop written out for the three coordinates: with the lanes
+/// kept in registers to the stores it runs ~5 % faster than through eval_runs' callback.
 template <int K>
 void ffd_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* Px, const double* Py,
-              const double* Pz, double* out, Index b, Index e) {
+              const double* Pz, double* out, Index b, Index e, const std::int32_t* rows = nullptr) {
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
   alignas(32) double C[3][K * K * K];
   for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
@@ -279,7 +279,7 @@ void ffd_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const
       alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
       for (Index v = lo; v < hi; ++v) {
         const Index base = point_basis<K>(T, E, v, bu, bv, bw);
-        double* o = out + 3 * v;
+        double* o = out + 3 * (rows ? Index(rows[v]) : v);
         o[0] = basis_dot<K>(T, Px, base, bu, bv, bw, si, sj);
         o[1] = basis_dot<K>(T, Py, base, bu, bv, bw, si, sj);
         o[2] = basis_dot<K>(T, Pz, base, bu, bv, bw, si, sj);
@@ -296,7 +296,7 @@ void ffd_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const
       const Lanes x = eval_power<K>(C[0], U, V, W), y = eval_power<K>(C[1], U, V, W),
                   z = eval_power<K>(C[2], U, V, W);
       for (Index l = 0; l < 4 && v + l < hi; ++l) {
-        double* o = out + 3 * (v + l);
+        double* o = out + 3 * (rows ? Index(rows[v + l]) : v + l);
         o[0] = x[l];
         o[1] = y[l];
         o[2] = z[l];

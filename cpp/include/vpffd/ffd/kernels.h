@@ -25,9 +25,11 @@ inline Eigen::Map<const KVec<K>> kload(const double* p) {
 }
 
 /// out[v] = sum_ijk B_ijk(u_v) P_ijk for v in [b, e); out is #points x 3 row-major.
+/// @param rows  if not null, point v goes to row rows[v] of out instead (the
+///              caller's vertex order, written without a reordering pass)
 template <int K>
 void ffd_kernel(const BasisTables& T, const Embedding& E, const double* Px, const double* Py, const double* Pz,
-                double* out, Index b, Index e) {
+                double* out, Index b, Index e, const std::int32_t* rows = nullptr) {
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
   alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
   for (Index v = b; v < e; ++v) {
@@ -59,9 +61,10 @@ void ffd_kernel(const BasisTables& T, const Embedding& E, const double* Px, cons
           }
         }
     }
-    out[3 * v] = x;
-    out[3 * v + 1] = y;
-    out[3 * v + 2] = z;
+    double* o = out + 3 * (rows ? Index(rows[v]) : v);
+    o[0] = x;
+    o[1] = y;
+    o[2] = z;
   }
 }
 

@@ -172,9 +172,9 @@ class Deformer {
   /// Plain FFD of the mesh vertices. @param P N x 3 control points. @returns #V x 3
   RowMatrixX3d ffd(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "ffd");
-    RowMatrixX3d Xs(n_vertices(), 3);
-    eval_ffd(P, Xs.data(), threads);
-    return to_caller_order(Xs, threads);
+    RowMatrixX3d X(n_vertices(), 3);
+    eval_ffd(P, X.data(), threads, order_.data());
+    return X;
   }
 
   /// Jacobians dD/dx at the vertices: #V x 9, row-major 3x3 per vertex.
@@ -438,20 +438,23 @@ class Deformer {
     VPFFD_CHECK(P.allFinite(), where, ": control points contain NaN or Inf");
   }
 
-  void eval_ffd(const Eigen::Ref<const RowMatrixX3d>& P, double* out, int threads) const {
+  /// The FFD of the vertices into out: row i is processing position i, or vertex
+  /// rows[i] when rows is given (order_: the caller's order, without a reordering pass).
+  void eval_ffd(const Eigen::Ref<const RowMatrixX3d>& P, double* out, int threads,
+                const std::int32_t* rows = nullptr) const {
     const RowMatrixX3d Pe = expand_points(ties_, P);
     const Eigen::VectorXd Px = Pe.col(0), Py = Pe.col(1), Pz = Pe.col(2);
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
         constexpr int k = decltype(K)::value;
         if constexpr (k > 0)
-          detail::ffd_runs<k>(tables_, embedding_, runs_, Px.data(), Py.data(), Pz.data(), out, b, e);
+          detail::ffd_runs<k>(tables_, embedding_, runs_, Px.data(), Py.data(), Pz.data(), out, b, e, rows);
         else
-          detail::ffd_kernel<k>(tables_, embedding_, Px.data(), Py.data(), Pz.data(), out, b, e);
+          detail::ffd_kernel<k>(tables_, embedding_, Px.data(), Py.data(), Pz.data(), out, b, e, rows);
       });
       if (seam_shift_.rows() > 0)
         for (Index i = b; i < e; ++i)
-          for (int c = 0; c < 3; ++c) out[3 * i + c] += seam_shift_(i, c);
+          for (int c = 0; c < 3; ++c) out[3 * (rows ? Index(rows[i]) : i) + c] += seam_shift_(i, c);
     });
   }
 
@@ -712,15 +715,25 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
 
   // --- plain FFD -------------------------------------------------------------
   res.target_volume = opt.preserve_volume ? pl.target : std::numeric_limits<double>::quiet_NaN();
-  RowMatrixX3d Xs(n_vertices(), 3);  // processing order
+  const int K = parts_.count;
+  // Nothing moves after the FFD of an uncorrected frame: it is written straight into
+  // the caller's order, and its volume summed over the caller's faces, which (one part:
+  // face_order_ is the identity) are processing_faces() face for face, the same terms
+  // in the same order.
+  const bool direct = !pl.correcting && K == 1;
+  RowMatrixX3d Xs(direct ? 0 : n_vertices(), 3);  // processing order
+  if (direct) {
+    res.vertices.resize(n_vertices(), 3);
+    eval_ffd(P, res.vertices.data(), threads, order_.data());
+  } else {
+    eval_ffd(P, Xs.data(), threads);
+  }
   double* X = Xs.data();
-  eval_ffd(P, X, threads);
   res.offsets = RowMatrixX3d::Zero(N, 3);
   lap(tm.ffd);
-  bool have_vertices = false;  // res.vertices already written (fused into the last gather)
+  bool have_vertices = direct;  // res.vertices already written (direct, or fused into the last gather)
 
   // --- axis steps -------------------------------------------------------------
-  const int K = parts_.count;
   if (K > 1) res.part_volumes_before = part_volumes(X, Fs_, face_start_, origin_, threads);
   if (K > 1 && opt.preserve_volume) {
     // One volume row per part in each step; the step's volume record is the whole mesh's.
@@ -755,7 +768,9 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     lap(tm.volume);
   } else if (!pl.correcting) {
     // Nothing moves: one volume is both the before and the after.
-    if (pl.measure) res.volume_before = res.volume = signed_volume(X, Fs_, origin_, threads);
+    if (pl.measure)
+      res.volume_before = res.volume =
+          direct ? signed_volume(res.vertices, F_, origin_, threads) : signed_volume(X, Fs_, origin_, threads);
     lap(tm.volume);
   } else if (!opt.preserve_volume) {
     // Constraints alone: the host steps, then each axis's total offsets at once.
