@@ -26,6 +26,10 @@
 //   point, the partials of the tiles of its <= K^3 cells in tile order. The number of
 //   tiles varies with the positions; NTILE is its upper bound ceil(V/64) + min(V, cells),
 //   so the pipelines never change (the extra tiles are empty).
+// - Periodic axes: the host tests the positions wrapped as the CPU's embed() does
+//   (wrap_point, so the same vertices are refused) but uploads them as given; embed.comp
+//   wraps them itself and keeps per slot the shift seam's translation and the twist
+//   seam's mirror (bSeam), which ffd.comp and normals.comp apply.
 // - Point constraints at vertices take their basis at the vertex's current rest
 //   position: after a move frames pass them to the CPU's plan as point constraints at
 //   that position (the plan embeds those few points on the host). The default volume
@@ -52,7 +56,7 @@ void VulkanDeformer::Impl::record_embedding() {
   begin(cb, false);
   barrier(cb);
   copy(cb, up_rest, buf[bRest], 24 * nv);
-  vkCmdFillBuffer(cb, buf[bSort].handle(), 16 * nv, 8 * N, 0);  // cells without vertices: empty ranges
+  vkCmdFillBuffer(cb, buf[bSort].handle(), 16 * nv, 8 * NE, 0);  // cells without vertices: empty ranges
   vkCmdFillBuffer(cb, buf[bTiles].handle(), 0, VK_WHOLE_SIZE, 0);  // tiles past the real ones: empty
   barrier(cb);
   vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
@@ -77,7 +81,7 @@ void VulkanDeformer::Impl::record_embedding() {
   t.flags = 1;
   dispatch(cb, kTiles, g_cp, t);
   Push sc;
-  sc.count = static_cast<std::int32_t>(N + 1);
+  sc.count = static_cast<std::int32_t>(NE + 1);
   dispatch(cb, kScan, 1, sc);
   t.flags = 2;
   dispatch(cb, kTiles, g_cp, t);
@@ -99,14 +103,18 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     hi[a] = L.domain_hi(a) + 1e3 * w;
   }
   bool bad = false;
+  const bool periodic = L.any_periodic();
   double* y64 = static_cast<double*>(up_rest.mapped());
   float* yff = static_cast<float*>(up_rest.mapped());
   for (Index i = 0; i < nv; ++i) {
     const Vector3d x = X.row(slot[i]).transpose();
-    const Vector3d u = parameter_of(L, x);
+    // embed() tests the point wrapped along periodic axes (the device wraps it again,
+    // embed.comp: only the positions are uploaded).
+    const Vector3d xw = periodic ? wrap_point(L, x) : x;
+    const Vector3d u = parameter_of(L, xw);
     for (int a = 0; a < 3; ++a) {
-      bad |= !std::isfinite(x[a]) || !(u[a] >= lo[a] && u[a] <= hi[a]);
-      if (refuse_outside) bad |= x[a] < L.box_min[a] - tol[a] || x[a] > L.box_max[a] + tol[a];
+      bad |= !std::isfinite(x[a]) || !std::isfinite(xw[a]) || !(u[a] >= lo[a] && u[a] <= hi[a]);
+      if (refuse_outside) bad |= xw[a] < L.box_min[a] - tol[a] || xw[a] > L.box_max[a] + tol[a];
       const double y = (x[a] - origin[a]) / scale;
       if (ff) {
         const float h = static_cast<float>(y);

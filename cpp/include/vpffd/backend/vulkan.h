@@ -116,8 +116,7 @@ class VulkanDeformer {
   /// @param[in] precision  how the device sums; Float64 on a device without
   ///                    shaderFloat64 raises BackendUnavailableError
   /// @throws InvalidInputError for bad input (as the CPU Deformer),
-  ///         BackendUnavailableError when no Vulkan or no suitable device is found, or
-  ///         for a periodic lattice (CPU only),
+  ///         BackendUnavailableError when no Vulkan or no suitable device is found,
   ///         DeviceError when a Vulkan call fails (the message names the call)
   VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F, Lattice L,
                  OutsidePolicy policy = OutsidePolicy::Error, const std::string& device = "",
