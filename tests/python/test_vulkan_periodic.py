@@ -147,9 +147,17 @@ def test_set_rest_vertices_refuses_what_the_cpu_refuses(setup):
         gpu.set_rest_vertices(X)
     assert str(cpu_err.value).split("embed: ")[1] == str(gpu_err.value).split("embed: ")[1]
     np.testing.assert_array_equal(gpu.mesh.vertices, mesh.vertices)
-    # Any distance along the periodic axis is inside.
+    # Any distance along the periodic axis is inside ...
     gpu.set_rest_vertices(mesh.vertices + [40 * EXT[0], 0.0, 0.0])
     gpu.set_rest_vertices(mesh.vertices)
+    # ... up to 2^24 extents on the device (its float32 positions keep nothing of the
+    # place in the box beyond): a clear error, where the CPU wraps.
+    X = mesh.vertices.copy()
+    X[7, 0] += 2.0 ** 25 * EXT[0]
+    vpffd.Deformer(vpffd.Mesh(X, mesh.faces), lat, backend="serial")
+    with pytest.raises(vpffd.InvalidInputError, match=r"vertex 7 lies .* box extents away along periodic axis x"):
+        gpu.set_rest_vertices(X)
+    np.testing.assert_array_equal(gpu.mesh.vertices, mesh.vertices)
 
 
 def test_normals_match_cpu(setup):

@@ -29,7 +29,9 @@
 // - Periodic axes: the host tests the positions wrapped as the CPU's embed() does
 //   (wrap_point, so the same vertices are refused) but uploads them as given; embed.comp
 //   wraps them itself and keeps per slot the shift seam's translation and the twist
-//   seam's mirror (bSeam), which ffd.comp and normals.comp apply.
+//   seam's mirror (bSeam), which ffd.comp and normals.comp apply. Positions over 2^24
+//   extents away along a periodic axis are refused (the device's reals and float32
+//   positions keep nothing of their place in the box; the CPU takes them).
 // - Point constraints at vertices take their basis at the vertex's current rest
 //   position: after a move frames pass them to the CPU's plan as point constraints at
 //   that position (the plan embeds those few points on the host). The default volume
@@ -102,8 +104,16 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     lo[a] = L.domain_lo(a) - 1e3 * w;
     hi[a] = L.domain_hi(a) + 1e3 * w;
   }
-  bool bad = false;
+  bool bad = false, far = false;
   const bool periodic = L.any_periodic();
+  // On a periodic axis any distance is inside, but the device wraps in reals (float-float:
+  // 48 bits) and keeps positions in float32: past 2^24 box extents nothing of the place
+  // within the box would be left, so such a position is refused (the CPU takes it).
+  const double far_extents = std::ldexp(1.0, 24);
+  auto too_far = [&](const Vector3d& x, int a) {
+    const double ext = L.box_max[a] - L.box_min[a];
+    return L.periodic(a) && !(std::abs(x[a] - 0.5 * (L.box_min[a] + L.box_max[a])) <= far_extents * ext);
+  };
   double* y64 = static_cast<double*>(up_rest.mapped());
   float* yff = static_cast<float*>(up_rest.mapped());
   for (Index i = 0; i < nv; ++i) {
@@ -115,6 +125,7 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     for (int a = 0; a < 3; ++a) {
       bad |= !std::isfinite(x[a]) || !std::isfinite(xw[a]) || !(u[a] >= lo[a] && u[a] <= hi[a]);
       if (refuse_outside) bad |= xw[a] < L.box_min[a] - tol[a] || xw[a] > L.box_max[a] + tol[a];
+      far |= too_far(x, a);
       const double y = (x[a] - origin[a]) / scale;
       if (ff) {
         const float h = static_cast<float>(y);
@@ -137,6 +148,14 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     }
     throw InvalidInputError(std::string(where) + ": a vertex lies outside the lattice box");  // not reached
   }
+  if (far)
+    for (Index v = 0; v < nv; ++v)
+      for (int a = 0; a < 3; ++a)
+        VPFFD_CHECK(!too_far(X.row(v).transpose(), a), where, ": vertex ", v, " lies ",
+                    std::abs(X(v, a) - 0.5 * (L.box_min[a] + L.box_max[a])) / (L.box_max[a] - L.box_min[a]),
+                    " box extents away along periodic axis ", "xyz"[a],
+                    "; the Vulkan backend wraps positions up to 2^24 extents away (its float32 positions keep "
+                    "nothing of the place in the box beyond); move the mesh back by whole extents");
 }
 
 void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) {
