@@ -87,7 +87,8 @@ def test_frames_match_cpu(setup):
     weights = np.linspace(1.0, 3.0, lat.n_control_points).reshape(lat.shape)
     fixed = np.zeros(lat.shape, bool)
     fixed[1, :, 0] = True
-    for kw in (dict(preserve_volume=False), dict(), dict(axes="zx", rounds=2), dict(axes="y"),
+    subsets = [dict(axes=a) for a in ("x", "y", "z", "xy", "yz", "zx")]
+    for kw in (dict(preserve_volume=False), dict(), dict(axes="zx", rounds=2), *subsets,
                dict(weights=weights, fixed=fixed), dict(constraints=cons),
                dict(constraints=cons, preserve_volume=False), dict(constraints=cons, axes="xz", weights=weights)):
         c, g = cpu.deform(P, **kw), gpu.deform(P, **kw)
@@ -158,6 +159,21 @@ def test_set_rest_vertices_refuses_what_the_cpu_refuses(setup):
     with pytest.raises(vpffd.InvalidInputError, match=r"vertex 7 lies .* box extents away along periodic axis x"):
         gpu.set_rest_vertices(X)
     np.testing.assert_array_equal(gpu.mesh.vertices, mesh.vertices)
+
+
+def test_outside_extrapolate(precision):
+    # A mesh past the box along a non-periodic axis (extrapolated there) and across the
+    # seam of the periodic one (wrapped).
+    name = "twist"
+    lat = lattice(name)
+    m = vpffd.shapes.icosphere(3, 0.3)
+    mesh = vpffd.Mesh(m.vertices + [1.85, 0.0, 0.25], m.faces)
+    assert (mesh.vertices[:, 2] > BOX_MAX[2]).any()
+    cpu = vpffd.Deformer(mesh, lat, backend="serial", outside="extrapolate")
+    gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=SEL, gpu_precision=precision, outside="extrapolate")
+    P = edited(name, lat)
+    for kw in (dict(preserve_volume=False), dict()):
+        assert_close(gpu.deform(P, **kw), cpu.deform(P, **kw), lat, mesh, cpu)
 
 
 def test_normals_match_cpu(setup):
