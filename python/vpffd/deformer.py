@@ -109,15 +109,6 @@ class Deformer:
         labels = _part_labels(parts, self.mesh.n_vertices)
         _check_memory(lattice.n_control_points, "Deformer", _FRAME_BYTES_PER_CONTROL_POINT,
                       _BYTES_PER_VERTEX * self.mesh.n_vertices)
-        if lattice.periodic:
-            # The Vulkan kernels evaluate the lattice as given; the periodic ties and the
-            # folded solve are the CPU's (lattice/periodic.h).
-            if backend == "vulkan":
-                raise BackendUnavailableError(
-                    f"backend 'vulkan': the lattice is periodic along {lattice.periodic!r}, which only the CPU "
-                    f"backends support; use backend='auto', 'openmp' or 'serial'")
-            if backend == "auto":
-                backend = "openmp" if _core.has_openmp() else "serial"
         if labels is not None and backend == "auto" and device is None:
             backend = "openmp" if _core.has_openmp() and (os.cpu_count() or 1) > 1 else "serial"
         self.backend, self._threads, selector = _resolve_backend(backend, threads, device, self.mesh.n_vertices)

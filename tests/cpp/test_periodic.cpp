@@ -1,11 +1,8 @@
 // Periodic lattices (lattice/periodic.h): the tie map, expansion and fold, the
-// periodic basis, and the wrap of points.
+// periodic basis, and the wrap of points (on the Vulkan backend: test_vulkan.cpp).
 #include <random>
 
 #include "helpers.h"
-#ifdef VPFFD_HAS_VULKAN
-#include "vpffd/backend/vulkan.h"
-#endif
 
 using namespace vpffd;
 
@@ -173,17 +170,3 @@ TEST(Periodic, DeformerCorrectsOnDistinctPoints) {
   EXPECT_LE((d.ffd(res.control_points) - res.vertices).cwiseAbs().maxCoeff(), 1e-12 * 4);
 }
 
-#ifdef VPFFD_HAS_VULKAN
-// The shaders have no periodic ties: the Vulkan backend refuses before it looks for
-// a device (so this holds on machines without one too).
-TEST(Periodic, VulkanRefusesPeriodicLattices) {
-  const TriMesh m = box_mesh(2, 1.0);
-  Lattice L;
-  L.degree = {2, 2, 2};
-  L.box_min = Vector3d(-0.6, -0.6, -0.6);
-  L.box_max = Vector3d(0.6, 0.6, 0.6);
-  L.seam = {Seam::Closed, Seam::None, Seam::None};
-  L.knots = {periodic_uniform_knots(4, 2), clamped_uniform_knots(3, 2), clamped_uniform_knots(3, 2)};
-  EXPECT_THROW(vulkan::VulkanDeformer(m.V, m.F, L), BackendUnavailableError);
-}
-#endif

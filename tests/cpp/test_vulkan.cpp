@@ -95,9 +95,27 @@ Bounds bounds(const DeformResult& c, const RowMatrixX3i& F, const Lattice& L, co
   double delta = c.offsets.cwiseAbs().maxCoeff();
   for (const AxisStep& st : c.steps) delta = std::max(delta, st.max_offset);
   const double step_error = u * (per_op * delta + Y.cwiseAbs().maxCoeff());
+  // A periodic lattice: the device evaluates the extended control points, and adds
+  // the wrap's and the shift seam's terms (gpu_bounds.py, _periodic_error).
+  const RowMatrixX3d Pe = expand_points(make_ties(L), P);
+  const double R = (Pe.rowwise() - o.transpose()).cwiseAbs().maxCoeff(), y_max = Y.cwiseAbs().maxCoeff();
+  double periodic = 0;
+  if (L.any_periodic()) {
+    double lip = 0;
+    bool shift = false;
+    for (int a = 0; a < 3; ++a) {
+      double h = std::numeric_limits<double>::infinity();
+      for (size_t i = 0; i + 1 < L.knots[a].size(); ++i)
+        if (L.knots[a][i + 1] > L.knots[a][i]) h = std::min(h, L.knots[a][i + 1] - L.knots[a][i]);
+      h *= (L.box_max[a] - L.box_min[a]) / (L.domain_hi(a) - L.domain_lo(a));
+      lip += 2 * L.degree[a] * R / h;
+      shift |= L.seam[a] == Seam::Shift;
+    }
+    periodic = 4 * u_sum * (y_max + (L.box_max - L.box_min).maxCoeff()) * (lip + (shift ? 1.0 : 0.0)) +
+               (shift ? u * (2 * y_max + R) : 0.0);
+  }
   Bounds b;
-  b.vertex = u * per_op * (P.rowwise() - o.transpose()).cwiseAbs().maxCoeff() +
-             double(std::max<size_t>(c.steps.size(), 1)) * step_error;
+  b.vertex = u * per_op * R + periodic + double(std::max<size_t>(c.steps.size(), 1)) * step_error;
   // |dV/dy_v|: the cone volume's gradient, sum over the faces at v of y_j x y_k / 6.
   RowMatrixX3d G = RowMatrixX3d::Zero(Y.rows(), 3);
   for (Index f = 0; f < F.rows(); ++f)
@@ -618,6 +636,48 @@ TEST(Vulkan, MultiresRefusesPeriodicLattice) {
   Lattice L = s.L;
   L.seam[0] = Seam::Shift;
   EXPECT_THROW(vulkan::VulkanMultires(mr, L), BackendUnavailableError);
+}
+
+// Periodic lattices, every seam: a sphere across the box's x = max face (wrapped on
+// the device), plain, corrected and constrained frames against the CPU within the
+// bounds above (their periodic terms included); the offsets are the distinct points'.
+TEST_P(VulkanP, PeriodicLatticesMatchCpu) {
+  const TriMesh m = icosphere(3);
+  const RowMatrixX3d V = (0.3 * m.V).rowwise() + Eigen::RowVector3d(1.85, 0.0, 0.0);
+  for (Seam seam : {Seam::Shift, Seam::Closed, Seam::Twist}) {
+    SCOPED_TRACE(int(seam));
+    Lattice L;
+    L.box_min = Vector3d(-1.0, -0.5, -0.4);
+    L.box_max = Vector3d(2.0, 0.5, 0.4);
+    L.seam = {seam, Seam::None, Seam::None};
+    const std::array<int, 3> n = {7, 5, 4};
+    for (int a = 0; a < 3; ++a) L.knots[a] = a == 0 ? periodic_uniform_knots(n[a], 3) : clamped_uniform_knots(n[a], 3);
+    Deformer cpu(V, m.F, L);
+    auto gpu = make(V, m.F, L);
+    // A smooth edit of the distinct rest points.
+    RowMatrixX3d P = restrict_points(cpu.ties(), rest_control_points(L));
+    ASSERT_EQ(P.rows(), cpu.n_control_points());
+    for (Index c = 0; c < P.rows(); ++c) {
+      P(c, 1) += 0.05 * std::sin(2.0 * P(c, 0));
+      P(c, 2) *= 1.0 + 0.1 * std::cos(P(c, 0));
+    }
+    CorrectionOptions plain, kept, cons;
+    plain.preserve_volume = false;
+    kept.axes = parse_axes("zx");
+    kept.rounds = 2;
+    PointConstraint pc;
+    pc.vertex = 0;
+    for (Index v = 1; v < V.rows(); ++v)
+      if (V(v, 0) < V(pc.vertex, 0)) pc.vertex = v;  // inside the box (a shift seam needs that)
+    pc.target = cpu.ffd(P).row(pc.vertex).transpose() + Vector3d(0.01, 0.02, -0.01);
+    cons.constraints = {pc};
+    for (const CorrectionOptions* o : {&plain, &kept, &cons}) {
+      const DeformResult c = cpu.deform(P, *o), g = gpu->deform(P, *o);
+      ASSERT_EQ(g.offsets.rows(), P.rows());
+      expect_close(g, c, m.F, L, P);
+      expect_offsets_explain_vertices(cpu, g, c, L, P);
+    }
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Precisions, VulkanP,

@@ -22,6 +22,20 @@ So a coordinate of a corrected vertex errs by at most
 Volumes and coefficients are summed in float64 or float-float (at least 44 bits); these
 sums add at most n 2^-44 of the sum of the absolute terms.
 
+Periodic lattices (lattice/periodic.h): the device evaluates the extended lattice, whose
+control points the host expands in double (a "shift" seam adds the box's extent) and
+rounds once each: the FFD's bound above holds with max|P - o| over the extended points.
+The offsets are the distinct points', copied to their tied ones (no rounding). The rest
+positions are wrapped into the box on the device in reals (embed.comp): the wrapped
+coordinate errs by at most 4 U_SUM (|y| + extent) (a subtraction of turns * extent,
+both rounded), which moves the image by at most that times the map's Lipschitz
+constant Lip <= sum_a 2 d_a R / h_a (the derivative's difference form: d_a times
+differences of control points, each at most 2 R = 2 max|P - o|, over knot spans h_a in
+world units) and, on a "shift" seam, the translation by as much. The translation
+(device units, rounded once to float32: u |T|, |T| <= |y| + R since the image of the
+wrapped point lies in the control points' hull) is then added in float32 (u |y|), so a
+shift seam adds u (2 |y| + R) to every vertex.
+
 A corrected volume: each step measures the volume of the positions the device holds,
 so only the rounding of the last step's coordinate remains unmeasured; the volume is
 linear in each coordinate (V = sum_v g_v y_v, g the cone-volume gradient), so
@@ -56,21 +70,44 @@ def volume_gradient(vertices, faces, origin):
     return G
 
 
+def _periodic_error(lat, Pe, y_max) -> float:
+    """What a periodic lattice adds to a vertex's bound (the derivation above): the
+    wrap's rounding through the map, and the shift seam's translation."""
+    if not lat.periodic:
+        return 0.0
+    o = 0.5 * (lat.box_min + lat.box_max)
+    R = float(np.abs(Pe - o).max())
+    ext = lat.box_max - lat.box_min
+    lip = 0.0
+    for a in range(3):
+        t = np.asarray(lat.knots[a], float)
+        d = lat.degree[a]
+        widths = np.diff(t)
+        h = widths[widths > 0].min() * ext[a] / (t[len(t) - d - 1] - t[d])
+        lip += 2 * d * R / h
+    shift = any(s == "shift" for s in lat.seams.values())
+    wrap = 4 * U_SUM * (y_max + float(ext.max())) * (lip + (1.0 if shift else 0.0))
+    return wrap + (U32 * (2 * y_max + R) if shift else 0.0)
+
+
 class Bounds:
     """The bounds of one CPU frame `c` (a deform result) on `mesh` in lattice `lat`."""
 
     def __init__(self, mesh, lat, c, P):
         o = 0.5 * (lat.box_min + lat.box_max)
         per_op = _basis_error(lat) + _terms(lat) + 3
-        P = np.asarray(P, float).reshape(-1, 3)
+        # The extended control points (the distinct ones without periodic axes).
+        P = lat.expanded_control_points(np.asarray(P, float).reshape(*lat.shape, 3)).reshape(-1, 3)
         offsets = np.asarray(c.offsets, float).reshape(-1, 3)
         Y = np.asarray(c.vertices, float) - o
         steps = max(len(c.steps), 1)
         # A step's own offsets (with rounds, one step's may exceed the frame's total).
         delta = max([s["max_offset"] for s in c.steps] + [np.abs(offsets).max(initial=0.0)])
         self.step_error = U32 * (per_op * delta + np.abs(Y).max())
-        # The plain FFD, then every step's gather and rounding.
-        self.vertex = U32 * per_op * np.abs(P - o).max() + steps * self.step_error
+        # The plain FFD (of the wrapped positions, with a shift seam's translation), then
+        # every step's gather and rounding.
+        self.vertex = (U32 * per_op * np.abs(P - o).max() + _periodic_error(lat, P, float(np.abs(Y).max()))
+                       + steps * self.step_error)
         G = np.abs(volume_gradient(c.vertices, mesh.faces, o))
         n_terms = 3 * len(mesh.faces)
         sum_error = n_terms * U_SUM * float(np.abs(Y).max() * G.sum())
@@ -207,7 +244,12 @@ def _jacobian_errors(lat, points, control_points, dmax=0.0):
     (V,), and the three axes' total basis-value errors, eB (3, V). ``dmax``: the largest
     offset added to the control points on the device (its rounding adds to theirs)."""
     X = np.asarray(points, float)
-    Q = np.asarray(control_points, float).reshape(*lat.shape, 3)
+    # A periodic lattice: the extended control points at the wrapped points (a twist
+    # seam's mirror changes the signs of two columns of J and of n0's components, not
+    # their sizes).
+    Q = lat.expanded_control_points(np.asarray(control_points, float).reshape(*lat.shape, 3))
+    if lat.periodic:
+        X = np.asarray(lat._spec.wrap_points(X)[0], float)
     o = 0.5 * (lat.box_min + lat.box_max)
     Ks = [d + 1 for d in lat.degree]
     n_v = len(X)
@@ -222,7 +264,7 @@ def _jacobian_errors(lat, points, control_points, dmax=0.0):
             lst.append(x)
     # One more control point each side: a vertex on a knot may sit in either span.
     R = np.zeros(n_v)
-    idx = [lambda f, i, a=a: np.clip(f + i, 0, lat.shape[a] - 1) for a in range(3)]
+    idx = [lambda f, i, a=a: np.clip(f + i, 0, Q.shape[a] - 1) for a in range(3)]
     for i in range(-1, Ks[0] + 1):
         for j in range(-1, Ks[1] + 1):
             for k in range(-1, Ks[2] + 1):

@@ -1,5 +1,6 @@
 """Periodic lattices: construction, the wrap of rest points, seam continuity, the
-volume correction on the distinct control points, and what refuses them."""
+volume correction on the distinct control points, and what refuses them (the Vulkan
+backend: test_vulkan_periodic.py)."""
 import numpy as np
 import pytest
 
@@ -271,14 +272,6 @@ def test_fold_check_covers_the_seam():
     P[0, :, :, 0] += 2.5 * EXT[0] / lat.shape[0]  # first slice past its neighbours: folds
     rep = vpffd.check_folds(lat, P)
     assert rep.folded
-
-
-def test_vulkan_refused_and_auto_takes_the_cpu():
-    lat = _lattice("closed")
-    mesh = vpffd.shapes.icosphere(2, 0.3)
-    with pytest.raises(vpffd.BackendUnavailableError, match="periodic"):
-        vpffd.Deformer(mesh, lat, backend="vulkan")
-    assert vpffd.Deformer(mesh, lat, backend="auto").backend in ("openmp", "serial")
 
 
 def test_multires_refuses_periodic_lattices():

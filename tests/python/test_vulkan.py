@@ -453,8 +453,8 @@ VALIDATION_LAYER = Path("/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_vali
 def test_validation_layer_reports_nothing(tmp_path):
     # Lavapipe forgives missing barriers and misused handles that a real GPU would
     # not: run frames of every kind (device steps, host offsets, plain, open mesh,
-    # constraints, failures, normals, moved rest meshes, both precisions) under the validation layer with
-    # synchronization validation, which must report nothing.
+    # constraints, failures, normals, moved rest meshes, periodic lattices, both precisions) under the
+    # validation layer with synchronization validation, which must report nothing.
     code = """
 import numpy as np, vpffd
 m = vpffd.shapes.icosphere(2)
@@ -481,8 +481,20 @@ for prec in ("float64", "float-float"):
     d.deform(P, axes="zx", rounds=2)
     o = vpffd.Deformer(vpffd.Mesh(m.vertices, m.faces[keep]), lat, backend="vulkan", device=%r, gpu_precision=prec)
     o.deform(P, allow_open=True)
+    # Periodic lattices: the tie map, the fold, the wrap, the seam data (a mesh across the seam).
+    for seam in ("shift", "twist"):
+        pl = vpffd.Lattice([-1.0, -0.6, -0.6], [0.8, 0.6, 0.6], shape=(6, 4, 4), periodic="x", seam=seam)
+        q = vpffd.Deformer(vpffd.Mesh(m.vertices * 0.5 + [0.7, 0, 0], m.faces), pl, backend="vulkan", device=%r,
+                           gpu_precision=prec)
+        Q = pl.rest_points * [1.0, 1.1, 0.9]
+        q.deform(Q, normals=True)
+        v = int(np.argmin(q.mesh.vertices[:, 0]))  # inside the box (a shift seam needs that)
+        q.deform(Q, constraints=[(v, q.mesh.vertices[v] + [0, 0.02, 0])], preserve_volume=False)
+        q.deform(Q, constraints=[(v, q.mesh.vertices[v] + [0, 0.02, 0])])
+        q.set_rest_vertices(q.mesh.vertices + [0.5, 0, 0])
+        q.deform(Q, axes="zx", rounds=2, normals=True)
 print("done")
-""" % (SEL, SEL)
+""" % (SEL, SEL, SEL)
     env = dict(os.environ, VK_INSTANCE_LAYERS="VK_LAYER_KHRONOS_validation",
                VK_LAYER_ENABLES="VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT",
                VK_LOADER_DEBUG="layer", PYTHONWARNINGS="ignore")

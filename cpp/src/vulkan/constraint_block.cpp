@@ -1,6 +1,8 @@
 // The point constraints' block on the device (solve.comp): the rows' control points
 // and basis values, G = R W^-1 R^T and its inverse, with the CPU backend's checks.
-// Uploaded only when the constraint sources or the weights change.
+// Uploaded only when the constraint sources or the weights change. On a periodic
+// lattice the rows are folded onto the distinct control points (the unknowns), while
+// each row keeps its first extended index (solve.comp walks its K^3 block).
 
 #include <Eigen/Eigenvalues>
 
@@ -28,13 +30,19 @@ bool VulkanDeformer::Impl::update_constraints(const std::vector<SparseVec>& rows
       (nc == 0 || (cons.inv_weight.size() == inv_weight.size() && cons.inv_weight == inv_weight)))
     return false;
 
+  // The rows' entries name extended control points; the unknowns are the distinct ones
+  // (periodic ties, correction/tied_solve.h): an entry counts for the point it copies.
+  const Ties& ties = cpu->ties();
+  std::vector<std::int32_t> dist(index);
+  if (!ties.identity)
+    for (std::int32_t& c : dist) c = ties.source[c];
   // Per control point, its entries s * KKK + o among the rows (s ascending: a fixed order).
   std::vector<std::int32_t> ptr(N + 1, 0), entry(index.size());
-  for (std::int32_t c : index) ++ptr[c + 1];
+  for (std::int32_t c : dist) ++ptr[c + 1];
   for (Index c = 0; c < N; ++c) ptr[c + 1] += ptr[c];
   {
     std::vector<std::int32_t> fill(ptr.begin(), ptr.end() - 1);
-    for (size_t e = 0; e < index.size(); ++e) entry[fill[index[e]]++] = static_cast<std::int32_t>(e);
+    for (size_t e = 0; e < dist.size(); ++e) entry[fill[dist[e]]++] = static_cast<std::int32_t>(e);
   }
   // C = R W^-1 R^T through those lists: only pairs of rows that share a control point.
   Eigen::MatrixXd C = Eigen::MatrixXd::Zero(nc, nc);
@@ -48,8 +56,18 @@ bool VulkanDeformer::Impl::update_constraints(const std::vector<SparseVec>& rows
   bool bad = false;
   const double max_iw = inv_weight.size() ? inv_weight.maxCoeff() : 1.0;
   for (Index s = 0; s < nc && !bad; ++s) {
+    // The squared norm of the (folded) row: entries at one distinct point add first.
     double scale = 0;
-    for (int o = 0; o < KKK; ++o) scale += value[s * KKK + o] * value[s * KKK + o];
+    for (int o = 0; o < KKK; ++o) {
+      const size_t e = size_t(s) * KKK + o;
+      bool first = true;
+      for (int q = 0; q < o && first; ++q) first = dist[size_t(s) * KKK + q] != dist[e];
+      if (!first) continue;
+      double v = 0;
+      for (int q = o; q < KKK; ++q)
+        if (dist[size_t(s) * KKK + q] == dist[e]) v += value[size_t(s) * KKK + q];
+      scale += v * v;
+    }
     bad = !(C(s, s) > 1e-300) || !(C(s, s) > 1e-24 * scale * max_iw);
   }
   double hi = 1.0;

@@ -115,7 +115,9 @@ struct VulkanDeformer::Impl {
   Precision precision = Precision::Float64;
   bool ff = false;  // float-float reals on the device
 
-  Index nv = 0, nf = 0, N = 0, n_tiles = 0;  // n_tiles: NTILE, an upper bound of the real tiles
+  // N: control points a frame takes (the distinct ones of a periodic lattice); NE: those
+  // the spline evaluates (the extended lattice; N without periodic axes).
+  Index nv = 0, nf = 0, N = 0, NE = 0, n_tiles = 0;  // n_tiles: NTILE, an upper bound of the real tiles
   int KKK = 0;
   std::uint32_t g_vert = 1, g_face = 1, g_cp = 1, g_tile = 1;
   Vector3d origin;
@@ -141,7 +143,7 @@ struct VulkanDeformer::Impl {
     bAlpha = VPFFD_B_ALPHA, bInvW = VPFFD_B_INV_W, bDelta = VPFFD_B_DELTA, bFrame = VPFFD_B_FRAME,
     bConsI = VPFFD_B_CONS_I, bStats = VPFFD_B_STATS, bRed = VPFFD_B_RED, bConsD = VPFFD_B_CONS_D,
     bWork = VPFFD_B_WORK, bNrm0 = VPFFD_B_NRM0, bNrm = VPFFD_B_NRM, bNrmTab = VPFFD_B_NRM_TAB,
-    bSort = VPFFD_B_SORT, kNumBuf = VPFFD_B_COUNT
+    bSort = VPFFD_B_SORT, bTies = VPFFD_B_TIES, bSeam = VPFFD_B_SEAM, kNumBuf = VPFFD_B_COUNT
   };
   static_assert(kNumBuf == int(kBindings), "one binding per device buffer");
   Buffer buf[kNumBuf];
@@ -292,7 +294,7 @@ struct VulkanDeformer::Impl {
   void embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where);
   const Deformer& synced_cpu();
   const CorrectionOptions& plan_options(const CorrectionOptions& opt, CorrectionOptions& storage) const;
-  void create_pipelines(const std::array<std::int32_t, 11>& spec);
+  void create_pipelines(const std::array<std::int32_t, 14>& spec);
 
   // ---- frames (all with frame_mutex held) -----------------------------------------
   VkCommandBuffer readback() {

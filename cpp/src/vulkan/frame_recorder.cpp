@@ -47,7 +47,7 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
     barrier(cb);
     copy(cb, buf[bX], x_good, 12 * nv);
   }
-  copy(cb, up_P, buf[bP], 12 * N);
+  copy(cb, up_P, buf[bP], 12 * NE);  // the extended lattice's (setup.cpp)
   copy(cb, up_frame, buf[bFrame], buf[bFrame].size());
   if (shape.mode == Shape::HostOffsets) copy(cb, up_delta, buf[bDelta], 24 * N);
   if (steps) vkCmdFillBuffer(cb, buf[bDelta].handle(), 0, VK_WHOLE_SIZE, 0);

@@ -327,7 +327,8 @@ VulkanMultires::VulkanMultires(std::shared_ptr<const Multires> m, Lattice L, con
     : impl_(std::make_unique<Impl>()) {
   if (L.any_periodic())
     throw BackendUnavailableError(
-        "VulkanMultires: periodic lattices run on the CPU backends only (the device has no periodic ties)");
+        "VulkanMultires: periodic lattices are not supported: the multiresolution FFD map has no periodic ties "
+        "on any backend; use a VulkanDeformer on the fine mesh");
   // MultiresFFD validates the decomposition and the lattice and embeds the foot points.
   impl_->cpu = std::make_unique<MultiresFFD>(std::move(m), std::move(L));
   impl_->build(device, precision);

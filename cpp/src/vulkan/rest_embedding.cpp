@@ -26,6 +26,12 @@
 //   point, the partials of the tiles of its <= K^3 cells in tile order. The number of
 //   tiles varies with the positions; NTILE is its upper bound ceil(V/64) + min(V, cells),
 //   so the pipelines never change (the extra tiles are empty).
+// - Periodic axes: the host tests the positions wrapped as the CPU's embed() does
+//   (wrap_point, so the same vertices are refused) but uploads them as given; embed.comp
+//   wraps them itself and keeps per slot the shift seam's translation and the twist
+//   seam's mirror (bSeam), which ffd.comp and normals.comp apply. Positions over 2^24
+//   extents away along a periodic axis are refused (the device's reals and float32
+//   positions keep nothing of their place in the box; the CPU takes them).
 // - Point constraints at vertices take their basis at the vertex's current rest
 //   position: after a move frames pass them to the CPU's plan as point constraints at
 //   that position (the plan embeds those few points on the host). The default volume
@@ -52,7 +58,7 @@ void VulkanDeformer::Impl::record_embedding() {
   begin(cb, false);
   barrier(cb);
   copy(cb, up_rest, buf[bRest], 24 * nv);
-  vkCmdFillBuffer(cb, buf[bSort].handle(), 16 * nv, 8 * N, 0);  // cells without vertices: empty ranges
+  vkCmdFillBuffer(cb, buf[bSort].handle(), 16 * nv, 8 * NE, 0);  // cells without vertices: empty ranges
   vkCmdFillBuffer(cb, buf[bTiles].handle(), 0, VK_WHOLE_SIZE, 0);  // tiles past the real ones: empty
   barrier(cb);
   vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
@@ -77,7 +83,7 @@ void VulkanDeformer::Impl::record_embedding() {
   t.flags = 1;
   dispatch(cb, kTiles, g_cp, t);
   Push sc;
-  sc.count = static_cast<std::int32_t>(N + 1);
+  sc.count = static_cast<std::int32_t>(NE + 1);
   dispatch(cb, kScan, 1, sc);
   t.flags = 2;
   dispatch(cb, kTiles, g_cp, t);
@@ -98,15 +104,28 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     lo[a] = L.domain_lo(a) - 1e3 * w;
     hi[a] = L.domain_hi(a) + 1e3 * w;
   }
-  bool bad = false;
+  bool bad = false, far = false;
+  const bool periodic = L.any_periodic();
+  // On a periodic axis any distance is inside, but the device wraps in reals (float-float:
+  // 48 bits) and keeps positions in float32: past 2^24 box extents nothing of the place
+  // within the box would be left, so such a position is refused (the CPU takes it).
+  const double far_extents = std::ldexp(1.0, 24);
+  auto too_far = [&](const Vector3d& x, int a) {
+    const double ext = L.box_max[a] - L.box_min[a];
+    return L.periodic(a) && !(std::abs(x[a] - 0.5 * (L.box_min[a] + L.box_max[a])) <= far_extents * ext);
+  };
   double* y64 = static_cast<double*>(up_rest.mapped());
   float* yff = static_cast<float*>(up_rest.mapped());
   for (Index i = 0; i < nv; ++i) {
     const Vector3d x = X.row(slot[i]).transpose();
-    const Vector3d u = parameter_of(L, x);
+    // embed() tests the point wrapped along periodic axes (the device wraps it again,
+    // embed.comp: only the positions are uploaded).
+    const Vector3d xw = periodic ? wrap_point(L, x) : x;
+    const Vector3d u = parameter_of(L, xw);
     for (int a = 0; a < 3; ++a) {
-      bad |= !std::isfinite(x[a]) || !(u[a] >= lo[a] && u[a] <= hi[a]);
-      if (refuse_outside) bad |= x[a] < L.box_min[a] - tol[a] || x[a] > L.box_max[a] + tol[a];
+      bad |= !std::isfinite(x[a]) || !std::isfinite(xw[a]) || !(u[a] >= lo[a] && u[a] <= hi[a]);
+      if (refuse_outside) bad |= xw[a] < L.box_min[a] - tol[a] || xw[a] > L.box_max[a] + tol[a];
+      far |= too_far(x, a);
       const double y = (x[a] - origin[a]) / scale;
       if (ff) {
         const float h = static_cast<float>(y);
@@ -129,6 +148,14 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     }
     throw InvalidInputError(std::string(where) + ": a vertex lies outside the lattice box");  // not reached
   }
+  if (far)
+    for (Index v = 0; v < nv; ++v)
+      for (int a = 0; a < 3; ++a)
+        VPFFD_CHECK(!too_far(X.row(v).transpose(), a), where, ": vertex ", v, " lies ",
+                    std::abs(X(v, a) - 0.5 * (L.box_min[a] + L.box_max[a])) / (L.box_max[a] - L.box_min[a]),
+                    " box extents away along periodic axis ", "xyz"[a],
+                    "; the Vulkan backend wraps positions up to 2^24 extents away (its float32 positions keep "
+                    "nothing of the place in the box beyond); move the mesh back by whole extents");
 }
 
 void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) {

@@ -2,6 +2,16 @@
 // Deformer's processing order (the device's vertex slots), the basis tables, and the
 // pipelines of both precisions; the rest positions are then embedded on the device
 // (rest_embedding.cpp).
+//
+// Periodic lattices (lattice/periodic.h): the device evaluates the extended lattice (NE
+// control points, the host expands the user's N distinct ones each frame: one float32
+// rounding of each, as for any control point) and solves for the distinct ones. The
+// tie map goes up once (bTies): per extended point its distinct one (gather, solve and
+// normals read offsets through it: a copy, the shift seam's constant belongs to
+// positions only), and per distinct point its extended copies (combine.comp folds the
+// coefficients: each distinct point sums the tiles of all its copies, in a fixed
+// order). The seams are a specialisation constant; embed.comp wraps the rest positions
+// into the box and keeps per slot what the wrap did (bSeam).
 
 #include <array>
 
@@ -16,7 +26,7 @@ using detail::groups_for;
 using detail::ms_since;
 using detail::put_reals;
 
-void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 11>& spec) {
+void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 14>& spec) {
   detail::create_compute_pipelines(d, buf, kBindings, sizeof(Push), spec.data(), std::uint32_t(spec.size()),
                                    ff ? kShadersFF : kShaders64, kPipes, pl);
 }
@@ -42,6 +52,8 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   nv = c.n_vertices();
   nf = c.n_faces();
   N = c.n_control_points();
+  NE = L.n_control_points();
+  const Ties& ties = c.ties();
   origin = c.origin();
   {
     const double half = 0.5 * (L.box_max - L.box_min).norm();
@@ -78,13 +90,13 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
     const Index cells = Index(dims[0] - T.order[0] + 1) * (dims[1] - T.order[1] + 1) * (dims[2] - T.order[2] + 1);
     n_tiles = (nv + kTile - 1) / kTile + std::min(nv, cells);
   }
-  if (n_tiles * KKK >= (Index(1) << 31) || 4 * nv + 2 * N >= (Index(1) << 31))
+  if (n_tiles * KKK >= (Index(1) << 31) || 4 * nv + 2 * NE >= (Index(1) << 31))
     throw InvalidInputError("VulkanDeformer: the mesh is too large for 32-bit device indices");
   // The cell sort: keys (first control point indices) below N, 8 bits per pass, an
   // even number of passes so that the sorted pairs end in the first array.
   {
     int bits = 1;
-    while ((Index(1) << bits) < N) ++bits;
+    while ((Index(1) << bits) < NE) ++bits;
     sort_passes = static_cast<std::uint32_t>(2 * ((bits + 15) / 16));
     sort_blocks = static_cast<std::uint32_t>((nv + VPFFD_SORT_BLOCK - 1) / VPFFD_SORT_BLOCK);
     if (sort_blocks > 65535)
@@ -97,6 +109,11 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
     const double lo = L.domain_lo(a), hi = L.domain_hi(a), k = (hi - lo) / (L.box_max[a] - L.box_min[a]);
     em[EM_U0 + a] = lo + (origin[a] - L.box_min[a]) * k;
     em[EM_DU + a] = scale * k;
+    // The box for the wrap of periodic axes (embed.comp), as wrap_point uses it.
+    em[EM_LO + a] = (L.box_min[a] - origin[a]) / scale;
+    em[EM_HI + a] = (L.box_max[a] - origin[a]) / scale;
+    em[EM_EXT + a] = (L.box_max[a] - L.box_min[a]) / scale;
+    em[EM_MID + a] = (L.box_min[a] + L.box_max[a] - 2 * origin[a]) / scale;
   }
   for (int a = 0; a < 3; ++a) {
     VPFFD_CHECK(L.knots[a].size() == size_t(dims[a] + T.order[a]), "VulkanDeformer: knot vector ", a, " has ",
@@ -108,13 +125,13 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
 
   g_vert = groups_for(nv, kMaxGroups);
   g_face = groups_for(nf, kMaxGroups);
-  g_cp = groups_for(N, 256);
+  g_cp = groups_for(NE, 256);
   g_tile = static_cast<std::uint32_t>(std::min<Index>(n_tiles, 65535));
-  const size_t scan_size = std::max<size_t>(size_t(VPFFD_SORT_DIGITS) * sort_blocks, size_t(N) + 1);
+  const size_t scan_size = std::max<size_t>(size_t(VPFFD_SORT_DIGITS) * sort_blocks, size_t(NE) + 1);
 
   using B = detail::Buffer;
   auto mk = [&](Buf i, size_t bytes, const char* what) { buf[i] = B(*dev, bytes, B::DeviceLocal, what); };
-  mk(bP, 12 * N, "control points");
+  mk(bP, 12 * NE, "control points");
   mk(bX, 12 * nv, "vertices");
   x_good = B(*dev, 12 * nv, B::DeviceLocal, "vertices of the last good frame");
   mk(bF, 12 * nf, "faces");
@@ -128,7 +145,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   mk(bTileVol, 8 * n_tiles, "tile volumes");
   mk(bScan, 4 * scan_size, "cell sort counts");
   mk(bRest, 8 * (3 * nv + em.size()), "rest positions");
-  mk(bSort, 4 * (4 * nv + 2 * N), "cell sort");
+  mk(bSort, 4 * (4 * nv + 2 * NE), "cell sort");
   up_rest = B(*dev, 24 * nv, B::Upload, "rest positions (upload)");
   mk(bAlpha, 8 * N, "coefficients");
   mk(bInvW, 8 * N, "inverse weights");
@@ -140,11 +157,28 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   mk(bNrm0, 16, "rest normals");
   mk(bNrm, 16, "normals");
   mk(bNrmTab, 8 * nrm_tab.size(), "normals basis table");
+  // Periodic lattices: the tie map (common.glsl TIE_*) and the per-slot seam data;
+  // placeholders without (the shaders do not read them then).
+  std::vector<std::int32_t> tie_map;
+  if (!ties.identity) {
+    tie_map.assign(ties.source.begin(), ties.source.end());
+    std::vector<std::int32_t> ptr(N + 1, 0), list(NE);
+    for (std::int32_t s : ties.source) ++ptr[s + 1];
+    for (Index s = 0; s < N; ++s) ptr[s + 1] += ptr[s];
+    std::vector<std::int32_t> fill(ptr.begin(), ptr.end() - 1);
+    for (Index r = 0; r < NE; ++r) list[fill[ties.source[r]]++] = static_cast<std::int32_t>(r);  // r ascending
+    tie_map.insert(tie_map.end(), ptr.begin(), ptr.end());
+    tie_map.insert(tie_map.end(), list.begin(), list.end());
+  }
+  mk(bTies, std::max<size_t>(16, 4 * tie_map.size()), "periodic ties");
+  bool seam_data = false;
+  for (int a = 0; a < 3; ++a) seam_data |= L.seam[a] == Seam::Shift || L.seam[a] == Seam::Twist;
+  mk(bSeam, seam_data ? 16 * size_t(nv) : 16, "seam translations");
   reserve(bFrame, &up_frame, 8 * FR_RHS, "frame parameters");
   reserve(bConsI, &up_cons_i, 4 * (CI_BASE + N + 1), "constraints");
   reserve(bConsD, &up_cons_d, 8, "constraints");
   reserve(bWork, nullptr, 8 * 6, "solve scratch");
-  up_P = B(*dev, 12 * N, B::Upload, "control points (upload)");
+  up_P = B(*dev, 12 * NE, B::Upload, "control points (upload)");
   up_invw = B(*dev, 8 * N, B::Upload, "inverse weights (upload)");
   up_delta = B(*dev, 24 * N, B::Upload, "offsets (upload)");
   rb_delta = B(*dev, 24 * N, B::Readback, "offsets (read-back)");
@@ -189,16 +223,26 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   put(bAdj, adj.faces.data(), 4 * adj.faces.size());
   put(bPoly, poly.data(), 4 * poly.size());
   put(bNrmTab, nrm_tab_dev.data(), 8 * nrm_tab_dev.size());
+  put(bTies, tie_map.data(), 4 * tie_map.size());
   // The table goes behind the rest positions (their place is filled per move).
   staging.emplace_back(*dev, 8 * em_dev.size(), B::Upload, "staging");
   std::memcpy(staging.back().mapped(), em_dev.data(), 8 * em_dev.size());
   copy(cmd, staging.back(), buf[bRest], 8 * em_dev.size(), 0, 24 * nv);
   submit_and_wait();
 
-  const std::array<std::int32_t, 11> spec = {T.order[0], T.order[1], T.order[2],
+  static_assert(int(Seam::None) == SEAM_NONE && int(Seam::Shift) == SEAM_SHIFT && int(Seam::Closed) == SEAM_CLOSED &&
+                    int(Seam::Twist) == SEAM_TWIST,
+                "the shaders' seam codes are lattice.h's");
+  std::int32_t seams = 0, kinds = 0;
+  for (int a = 0; a < 3; ++a) {
+    seams |= static_cast<std::int32_t>(L.seam[a]) << (2 * a);
+    if (L.seam[a] != Seam::None) kinds |= 1 << static_cast<int>(L.seam[a]);
+  }
+  const std::array<std::int32_t, 14> spec = {T.order[0], T.order[1], T.order[2],
                                               dims[0], dims[1], dims[2],
                                               static_cast<std::int32_t>(nv), static_cast<std::int32_t>(nf),
-                                              static_cast<std::int32_t>(n_tiles), poly_off[1], poly_off[2]};
+                                              static_cast<std::int32_t>(n_tiles), poly_off[1], poly_off[2],
+                                              ties.identity ? 0 : static_cast<std::int32_t>(N), seams, kinds};
   create_pipelines(spec);
 
   // The construction's rest mesh goes through the same device embedding as every

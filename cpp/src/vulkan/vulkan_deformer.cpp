@@ -23,6 +23,10 @@
 // live in buffers. Point constraints without a volume row do not depend on the mesh
 // at all, so the host solves them (exactly as the CPU backend, errors included) and
 // the device only applies the offsets.
+//
+// Periodic lattices (setup.cpp): P is expanded to the extended lattice on the host, the
+// device solves for the distinct control points; offsets, steps and results are the
+// distinct points', as on the CPU.
 
 #include "deformer_impl.h"
 #include "vpffd/correction/errors.h"
@@ -40,10 +44,6 @@ VulkanDeformer::VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Ei
                                Lattice L, OutsidePolicy policy, const std::string& device,
                                Precision precision)
     : impl_(std::make_unique<Impl>()) {
-  // The shaders evaluate the lattice as given; periodic ties (lattice/periodic.h) are the CPU's.
-  if (L.any_periodic())
-    throw BackendUnavailableError(
-        "VulkanDeformer: periodic lattices run on the CPU backends only (the device has no periodic ties)");
   // The CPU Deformer validates the input exactly as the CPU backend does and keeps
   // the exact (float64) rest volume, the edge report and the embedding.
   impl_->cpu = std::make_unique<Deformer>(V, F, std::move(L), policy);
@@ -150,9 +150,12 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     aux = true;
   }
   {
+    // The extended lattice's control points (periodic ties: copies, "shift" seams add
+    // the extent in double, as the CPU's expand_points), each rounded once to float32.
+    const RowMatrixX3d Q = expand_points(cpu.ties(), P);  // a copy of P without ties
     float* p = static_cast<float*>(m.up_P.mapped());
-    for (Index c = 0; c < N; ++c)
-      for (int a = 0; a < 3; ++a) p[3 * c + a] = static_cast<float>((P(c, a) - m.origin[a]) / m.scale);
+    for (Index c = 0; c < m.NE; ++c)
+      for (int a = 0; a < 3; ++a) p[3 * c + a] = static_cast<float>((Q(c, a) - m.origin[a]) / m.scale);
   }
   m.reserve(Impl::bFrame, &m.up_frame, 8 * (FR_RHS + 3 * nc), "frame parameters");
   {
@@ -163,7 +166,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     fr[FR_MAX_INVW] = inv_weight.maxCoeff();
     fr[FR_HI] = m.cons.hi;
     for (int a = 0; a < 3; ++a) {
-      const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, P.col(a));
+      const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, expand_column(cpu.ties(), P.col(a), a));
       for (size_t i = 0; i < nc; ++i) fr[FR_RHS + a * nc + i] = rhs[i] / s;
     }
     put_reals(m.up_frame.mapped(), fr.data(), fr.size(), m.ff);
@@ -262,7 +265,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     res.volume_before = before;
     res.volume = after;
   }
-  res.constraint_error = constraint_error(rows, res.control_points, opt.constraints);
+  res.constraint_error = constraint_error(rows, expand_points(cpu.ties(), res.control_points), opt.constraints);
   // Under the frame's lock: another thread's frame would overwrite rb_X.
   if (read_vertices) res.vertices = m.unpack_vertices();
   if (normals) *normals = m.unpack_normals();

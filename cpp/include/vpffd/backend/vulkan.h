@@ -116,8 +116,7 @@ class VulkanDeformer {
   /// @param[in] precision  how the device sums; Float64 on a device without
   ///                    shaderFloat64 raises BackendUnavailableError
   /// @throws InvalidInputError for bad input (as the CPU Deformer),
-  ///         BackendUnavailableError when no Vulkan or no suitable device is found, or
-  ///         for a periodic lattice (CPU only),
+  ///         BackendUnavailableError when no Vulkan or no suitable device is found,
   ///         DeviceError when a Vulkan call fails (the message names the call)
   VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F, Lattice L,
                  OutsidePolicy policy = OutsidePolicy::Error, const std::string& device = "",
@@ -126,7 +125,9 @@ class VulkanDeformer {
   VulkanDeformer(const VulkanDeformer&) = delete;
   VulkanDeformer& operator=(const VulkanDeformer&) = delete;
 
-  /// One frame with control points P (N x 3). `opt.method` and `opt.threads` are
+  /// One frame with control points P (N x 3; the distinct ones of a periodic lattice,
+  /// as Deformer::deform: the device expands them and solves for them, and on periodic
+  /// axes wraps the rest vertices into the box). `opt.method` and `opt.threads` are
   /// ignored (the device always uses the traversal; method='csr' is still refused on
   /// an open mesh, as on the CPU, so both backends accept the same options). With read_vertices false the
   /// result's `vertices` is empty: call vertices() when they are needed. Errors are
@@ -149,13 +150,17 @@ class VulkanDeformer {
   /// VulkanDeformer built on it would (embedding, cell order of the tiles, rest
   /// volume), within the backend's float32 tolerance. Only X goes to the device; the
   /// embedding (span and local parameter per vertex) and the sort of the vertices by
-  /// lattice cell run there, with the CPU's rules (lattice/embed.h). The rest volume is
+  /// lattice cell run there, with the CPU's rules (lattice/embed.h; on periodic axes the
+  /// wrap into the box, with a shift seam's translation and a twist seam's mirror, is
+  /// done there too). The rest volume is
   /// computed on the host in float64 (O(F)). The vertex order of the device buffers
   /// (vertex_order()) and the faces do not change. Not to be called while a frame runs.
   /// @param[in] X  #V x 3 new rest vertices, world units
   /// @throws InvalidInputError for a wrong shape, non-finite coordinates, vertices too far
   ///         from the lattice, or outside its box (unless built with
-  ///         OutsidePolicy::Extrapolate), with the CPU's message (how many, the first);
+  ///         OutsidePolicy::Extrapolate), with the CPU's message (how many, the first),
+  ///         or, unlike the CPU, over 2^24 box extents away along a periodic axis (the
+  ///         device's float32 positions keep nothing of their place in the box there);
   ///         the deformer is unchanged then. DeviceError when a Vulkan call fails.
   void set_rest_vertices(const Eigen::Ref<const RowMatrixX3d>& X);
   /// The current rest vertices (#V x 3, input order).

@@ -2,30 +2,44 @@
 // alpha[c] = sum of the tile partials that touch control point c, in tile order: the
 // tiles of the (at most K^3) cells whose K^3 block holds c, cells in increasing index
 // (tiles are numbered by cell, tiles.comp), each cell's tiles in order. The order
-// depends only on the cell table, so reruns are bit-identical.
+// depends only on the cell table, so reruns are bit-identical. On a periodic lattice
+// alpha is over the distinct control points: each sums the tiles of all its extended
+// copies (the fold, lattice/periodic.h), still in a fixed order.
 #include "common.glsl"
 layout(local_size_x = VPFFD_GROUP) in;
 
+// The tiles' partials of extended control point c, added to s.
+real add_tiles(int c, real s) {
+  const int i = c / (NV * NW), j = (c / NW) % NV, k = c % NW;
+  // Cell (i - di, j - dj, k - dk) holds c at local (di, dj, dk); decreasing offsets
+  // visit the cells in increasing index.
+  for (int di = KU - 1; di >= 0; --di) {
+    const int ci = i - di;
+    if (ci < 0 || ci > NU - KU) continue;
+    for (int dj = KV - 1; dj >= 0; --dj) {
+      const int cj = j - dj;
+      if (cj < 0 || cj > NV - KV) continue;
+      for (int dk = KW - 1; dk >= 0; --dk) {
+        const int ck = k - dk;
+        if (ck < 0 || ck > NW - KW) continue;
+        const int cell = (ci * NV + cj) * NW + ck, o = (di * KV + dj) * KW + dk;
+        for (uint t = scan_buf[cell]; t < scan_buf[cell + 1]; ++t) s = r_add(s, partial[int(t) * KKK + o]);
+      }
+    }
+  }
+  return s;
+}
+
 void main() {
   const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-  for (uint c = gl_GlobalInvocationID.x; c < uint(NCP); c += stride) {
-    const int i = int(c) / (NV * NW), j = (int(c) / NW) % NV, k = int(c) % NW;
+  for (uint c = gl_GlobalInvocationID.x; c < uint(NDC); c += stride) {
     real s = r_zero();
-    // Cell (i - di, j - dj, k - dk) holds c at local (di, dj, dk); decreasing offsets
-    // visit the cells in increasing index.
-    for (int di = KU - 1; di >= 0; --di) {
-      const int ci = i - di;
-      if (ci < 0 || ci > NU - KU) continue;
-      for (int dj = KV - 1; dj >= 0; --dj) {
-        const int cj = j - dj;
-        if (cj < 0 || cj > NV - KV) continue;
-        for (int dk = KW - 1; dk >= 0; --dk) {
-          const int ck = k - dk;
-          if (ck < 0 || ck > NW - KW) continue;
-          const int cell = (ci * NV + cj) * NW + ck, o = (di * KV + dj) * KW + dk;
-          for (uint t = scan_buf[cell]; t < scan_buf[cell + 1]; ++t) s = r_add(s, partial[int(t) * KKK + o]);
-        }
-      }
+    if (TIED) {
+      // The fold of lattice/periodic.h: a distinct point's coefficient is the sum of
+      // those of its extended copies (itself first), in increasing index.
+      for (int p = ties[TIE_PTR + int(c)]; p < ties[TIE_PTR + int(c) + 1]; ++p) s = add_tiles(ties[TIE_LIST + p], s);
+    } else {
+      s = add_tiles(int(c), s);
     }
     alpha[c] = s;
   }

@@ -31,9 +31,21 @@ layout(constant_id = 7) const int NFACE = 1;
 layout(constant_id = 8) const int NTILE = 1;
 layout(constant_id = 9) const int POLY_V = 0;  // start of axis v's span table in `poly`
 layout(constant_id = 10) const int POLY_W = 0;
+// Periodic axes (lattice/periodic.h): NDIST distinct control points (0: none, the
+// lattice has no ties); per axis a seam, 2 bits each at bit 2a (SEAM_NONE, SEAM_SHIFT,
+// SEAM_CLOSED or SEAM_TWIST); SEAM_KINDS: bit 1 << kind for each kind present.
+layout(constant_id = 11) const int NDIST = 0;
+layout(constant_id = 12) const int SEAMS = 0;
+layout(constant_id = 13) const int SEAM_KINDS = 0;
 
-const int NCP = NU * NV * NW;
+const int NCP = NU * NV * NW;     // control points of the (extended) lattice the spline evaluates
 const int KKK = KU * KV * KW;
+// (Plain comparisons only: glslang's optimiser fails on || of specialisation constants.)
+const bool TIED = NDIST > 0;
+const int NDC = TIED ? NDIST : NCP;  // the control points a frame solves for (alpha, inv_w, delta rows)
+const bool ANY_SHIFT = (SEAM_KINDS & (1 << SEAM_SHIFT)) != 0;
+const bool ANY_TWIST = (SEAM_KINDS & (1 << SEAM_TWIST)) != 0;
+int seam_of(int a) { return (SEAMS >> (2 * a)) & 0x3; }
 
 layout(push_constant) uniform Push {
   int axis;   // 0, 1, 2
@@ -83,6 +95,20 @@ layout(std430, set = 0, binding = VPFFD_B_NRM0) readonly buffer BufNrm0 { float 
 layout(std430, set = 0, binding = VPFFD_B_NRM) writeonly buffer BufNrm { float nrm[]; };
 // normals.comp: `poly` in reals (same layout), then per axis and span d tau / d y.
 layout(std430, set = 0, binding = VPFFD_B_NRM_TAB) readonly buffer BufNrmTab { real nrm_tab[]; };
+// Periodic ties (TIED only): per extended control point the distinct one it copies
+// (NCP ints), then per distinct point its extended copies as a list: NDIST + 1
+// offsets (from TIE_LIST), then the copies in increasing index (NCP ints).
+layout(std430, set = 0, binding = VPFFD_B_TIES) readonly buffer BufTies { int ties[]; };
+const int TIE_PTR = NCP;
+const int TIE_LIST = NCP + NDIST + 1;
+// Per vertex slot (embed.comp, with a "shift" or "twist" seam): the translation a
+// shift seam adds to the image of the wrapped rest position (xyz, device units) and
+// whether a twist seam mirrored it (w: 1 or 0).
+layout(std430, set = 0, binding = VPFFD_B_SEAM) buffer BufSeam { vec4 seam[]; };
+
+// The distinct control point whose displacement extended control point c takes
+// (a displacement is tied by a pure copy: no shift constant).
+int tie(int c) { return TIED ? ties[c] : c; }
 
 
 // Basis values of one axis at local parameter t: Horner on the span's power form

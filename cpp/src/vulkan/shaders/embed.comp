@@ -10,6 +10,9 @@
 // host embedded; where u lies within a real's rounding of a knot the span may be the
 // neighbour of the CPU's, which gives the same point (the spline is continuous there).
 // Also writes X = the rest positions: the device vertices before any frame.
+// On periodic axes the position is first wrapped into the box (wrap below); the
+// spans and parameters are those of the wrapped position, `seam` keeps what the
+// wrap did (ffd.comp adds the translation, normals.comp applies the mirror).
 #include "common.glsl"
 layout(local_size_x = VPFFD_GROUP) in;
 
@@ -38,17 +41,60 @@ int find_span(int off, int n, int d, real u) {
   return lo;
 }
 
+// wrap_point of lattice/embed.h in device units (the box's faces, extent and mirror
+// from the table): per periodic axis the position moved into [lo, hi) by whole extents,
+// with the translation a "shift" seam adds to its image and the parity of the turns of
+// a "twist" seam, which mirrors the two other coordinates in the box. The same rules as
+// the CPU's in reals, so a position within a real's rounding of a face may land on the
+// other face; both give the same image (the spline is periodic there, the translation
+// and the mirror follow the side taken).
+void wrap(inout real y[3], out vec4 moved) {
+  bool flip = false;
+  moved = vec4(0.0);
+  for (int a = 0; a < 3; ++a) {
+    const int sm = seam_of(a);
+    if (sm == SEAM_NONE) continue;
+    const real lo = rest[TAB + EM_LO + a], ext = rest[TAB + EM_EXT + a];
+    real turns = r_floor(r_div(r_sub(y[a], lo), ext));
+    real w = r_sub(y[a], r_mul(turns, ext));
+    if (!r_less(w, rest[TAB + EM_HI + a])) {
+      w = r_sub(w, ext);
+      turns = r_add(turns, r_f(1.0));
+    }
+    if (r_less(w, lo)) w = lo;
+    // The translation the position was moved by, as the CPU's x - y.
+    if (sm == SEAM_SHIFT) moved[a] = r_to_float(r_sub(y[a], w));
+    if (sm == SEAM_TWIST) flip = r_hi(r_sub(turns, r_mulf(r_floor(r_mulf(turns, 0.5)), 2.0))) != 0.0;
+    y[a] = w;
+  }
+  if (flip) {
+    // A twist axis's two other axes are not periodic (validate_periodic).
+    for (int b = 0; b < 3; ++b)
+      if (seam_of(b) != SEAM_TWIST) y[b] = r_sub(rest[TAB + EM_MID + b], y[b]);
+    moved.w = 1.0;
+  }
+}
+
 void main() {
   const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
   const bool clamp_u = (pc.flags & EM_CLAMP) != 0;
   for (uint v = gl_GlobalInvocationID.x; v < uint(NVERT); v += stride) {
+    real y[3];
+    for (int a = 0; a < 3; ++a) {
+      y[a] = rest[3 * v + a];
+      X[3 * v + a] = r_to_float(y[a]);
+    }
+    if (SEAMS != 0) {
+      vec4 moved;
+      wrap(y, moved);
+      if (ANY_SHIFT || ANY_TWIST) seam[v] = moved;
+    }
     int first[3];
     for (int a = 0; a < 3; ++a) {
       const int n = a == 0 ? NU : (a == 1 ? NV : NW);
       const int d = (a == 0 ? KU : (a == 1 ? KV : KW)) - 1;
       const int off = knots_at(a);
-      const real y = rest[3 * v + a];
-      real u = r_add(rest[TAB + EM_U0 + a], r_mul(y, rest[TAB + EM_DU + a]));
+      real u = r_add(rest[TAB + EM_U0 + a], r_mul(y[a], rest[TAB + EM_DU + a]));
       if (clamp_u) {
         if (r_less(u, rest[off + d])) u = rest[off + d];
         if (r_less(rest[off + n], u)) u = rest[off + n];
@@ -58,7 +104,6 @@ void main() {
       tau[3 * v + a] = r_to_float(r_div(r_sub(u, t0), r_sub(rest[off + s + 1], t0)));
       first[a] = s - d;
       span[3 * v + a] = s - d;
-      X[3 * v + a] = r_to_float(y);
     }
     sorted[2 * v] = (first[0] * NV + first[1]) * NW + first[2];
     sorted[2 * v + 1] = int(v);

@@ -1,5 +1,7 @@
 #version 450
-// Plain FFD of every vertex (eq. 1): X = sum_ijk B_i(u) B_j(v) B_k(w) P_ijk.
+// Plain FFD of every vertex (eq. 1): X = sum_ijk B_i(u) B_j(v) B_k(w) P_ijk, over the
+// extended control points of a periodic lattice (the host expands them), plus the
+// translation a "shift" seam adds to a vertex wrapped into the box (embed.comp).
 #include "common.glsl"
 layout(local_size_x = VPFFD_GROUP) in;
 
@@ -22,6 +24,7 @@ void main() {
       }
       acc += bu[i] * ai;
     }
+    if (ANY_SHIFT) acc += seam[v].xyz;
     X[3 * v] = acc.x;
     X[3 * v + 1] = acc.y;
     X[3 * v + 2] = acc.z;

@@ -33,7 +33,9 @@
 #define VPFFD_B_NRM 23        // 3V float: deformed vertex normals
 #define VPFFD_B_NRM_TAB 24    // real: power forms and derivative scales for normals.comp
 #define VPFFD_B_SORT 25       // int: two (cell, slot) arrays of 2V (the sort's ping-pong), then (start, end) per cell
-#define VPFFD_B_COUNT 26
+#define VPFFD_B_TIES 26       // int: periodic tie map (common.glsl TIE_*)
+#define VPFFD_B_SEAM 27       // vec4 per vertex slot: shift seam translation, twist seam mirror flag
+#define VPFFD_B_COUNT 28
 
 // Workgroup sizes.
 #define VPFFD_TILE 64         // vertices per tile = coef.comp's workgroup size
@@ -60,10 +62,21 @@ const int CI_G = 3;           // offset in cons_d of G_cc = R W^-1 R^T (nc x nc)
 const int CI_H = 4;           // offset in cons_d of G_cc^-1 (nc x nc)
 const int CI_BASE = 8;        // nc first control point indices; cons_d starts with nc x KKK row values
 // rest[]: reals after the 3V positions: the parameter map u = EM_U0[a] + y EM_DU[a] per
-// axis (y in device units), then the knot vectors of the three axes (dims + order each).
+// axis (y in device units); the box per axis (device units): its low and high faces, its
+// extent and lo + hi (a twist seam's mirror: y -> EM_MID - y); then the knot vectors of
+// the three axes (dims + order each).
 const int EM_U0 = 0;
 const int EM_DU = 3;
-const int EM_KNOTS = 6;
+const int EM_LO = 6;
+const int EM_HI = 9;
+const int EM_EXT = 12;
+const int EM_MID = 15;
+const int EM_KNOTS = 18;
+// Seams per axis in the SEAMS specialisation constant (2 bits per axis; Seam of lattice.h).
+const int SEAM_NONE = 0;
+const int SEAM_SHIFT = 1;
+const int SEAM_CLOSED = 2;
+const int SEAM_TWIST = 3;
 // Push flags of embed.comp: clamp the parameter into the domain (outside = error).
 const int EM_CLAMP = 1;
 // stats[]: reals, per step: volume_before, share, sum_squares, max_offset, status, detail.

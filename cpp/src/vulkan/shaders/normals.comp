@@ -16,7 +16,8 @@
 //
 // Why the basis is evaluated in reals here (the FFD's is float32): see basis_reals.glsl;
 // with it the angle bound proves the issue's 0.01 degree (tests/python/gpu_bounds.py,
-// normal_angle_bound). 3 K^2 real operations per vertex, against the K^3 float32 ones
+// normal_angle_bound). On a periodic lattice P is extended and the offsets are the
+// distinct points' (tie()), as in ffd.comp and gather.comp. 3 K^2 real operations per vertex, against the K^3 float32 ones
 // of the Jacobian.
 #include "common.glsl"
 layout(local_size_x = VPFFD_GROUP) in;
@@ -50,8 +51,10 @@ void main() {
         for (int k = 0; k < KW; ++k) {
           const int c = row + k;
           vec3 q = vec3(P[3 * c], P[3 * c + 1], P[3 * c + 2]);
-          if (offsets)
-            q += vec3(r_to_float(delta[c]), r_to_float(delta[NCP + c]), r_to_float(delta[2 * NCP + c]));
+          if (offsets) {
+            const int e = tie(c);
+            q += vec3(r_to_float(delta[e]), r_to_float(delta[NDC + e]), r_to_float(delta[2 * NDC + e]));
+          }
           s0 += bw[k] * q;
           s1 += dw[k] * q;
         }
@@ -63,7 +66,14 @@ void main() {
       c1 += bu[i] * a10;
       c2 += bu[i] * a01;
     }
-    const vec3 n0 = vec3(nrm0[3 * v], nrm0[3 * v + 1], nrm0[3 * v + 2]);
+    vec3 n0 = vec3(nrm0[3 * v], nrm0[3 * v + 1], nrm0[3 * v + 2]);
+    // A vertex that a twist seam mirrored (embed.comp): the map of the point as given
+    // is D(M x), M the mirror of the two other axes (det M = 1, M^-T = M), whose
+    // cofactor matrix is cof(J) M: the rest normal is mirrored (the CPU negates J's
+    // columns instead, lattice/periodic.h unmirror_jacobians; the same products).
+    if (ANY_TWIST && seam[v].w != 0.0)
+      for (int a = 0; a < 3; ++a)
+        if (seam_of(a) != SEAM_TWIST) n0[a] = -n0[a];
     const vec3 n = n0.x * cross(c1, c2) + n0.y * cross(c2, c0) + n0.z * cross(c0, c1);
     const float len = length(n);
     // Zero where cof(J) n0 vanishes or overflows, as the CPU's normalized_or_zero.

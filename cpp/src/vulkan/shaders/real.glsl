@@ -99,6 +99,12 @@ real r_div(real a, real b) {
 }
 
 real r_abs(real a) { return a.x < 0.0 || (a.x == 0.0 && a.y < 0.0) ? -a : a; }
+// The largest integer <= hi + lo, exactly: if hi is not an integer, |lo| <= ulp(hi) / 2
+// leaves hi + lo strictly between floor(hi) and floor(hi) + 1.
+real r_floor(real a) {
+  const float f = floor(a.x);
+  return f != a.x ? vec2(f, 0.0) : ff_fast_two_sum(f, floor(a.y));
+}
 bool r_less(real a, real b) { return a.x < b.x || (a.x == b.x && a.y < b.y); }
 real r_max(real a, real b) { return r_less(a, b) ? b : a; }
 
@@ -130,6 +136,7 @@ real r_mulf(real a, float b) { return a * double(b); }
 real r_prod(float a, float b) { return double(a) * double(b); }  // exact: 48 < 53 bits
 real r_div(real a, real b) { return a / b; }
 real r_abs(real a) { return abs(a); }
+real r_floor(real a) { return floor(a); }
 bool r_less(real a, real b) { return a < b; }
 real r_max(real a, real b) { return max(a, b); }
 

@@ -17,6 +17,11 @@
 // b_s is measured where the constraint point is now (the host's target - B(u_s) . P
 // minus B(u_s) . the offsets of earlier steps), so later rounds only correct rounding.
 // Failures are written as a status the host turns into the CPU's SolverError.
+//
+// On a periodic lattice the unknowns are the distinct control points (NDC of them,
+// correction/tied_solve.h): alpha arrives folded (combine.comp), a constraint row's
+// extended entries read their distinct point through tie(), and the host's block
+// (constraint_block.cpp) holds the folded rows.
 #include "common.glsl"
 layout(local_size_x = VPFFD_GROUP) in;
 const int WG = VPFFD_GROUP;
@@ -63,7 +68,7 @@ void main() {
 
   real vol = r_zero(), g00 = r_zero(), s2 = r_zero();
   for (int i = l; i < NTILE; i += WG) vol = r_add(vol, tile_vol[i]);
-  for (int c = l; c < NCP; c += WG) {
+  for (int c = l; c < NDC; c += WG) {
     const real a = alpha[c];
     const real a2 = r_mul(a, a);
     g00 = r_add(g00, r_mul(a2, inv_w[c]));
@@ -85,10 +90,10 @@ void main() {
       for (int i = 0; i < KU; ++i)
         for (int j = 0; j < KV; ++j)
           for (int k = 0; k < KW; ++k, ++o) {
-            const int c = base + (i * NV + j) * NW + k;
+            const int c = tie(base + (i * NV + j) * NW + k);
             const real r = cons_d[o];
             g = r_add(g, r_mul(r_mul(r, inv_w[c]), alpha[c]));
-            moved = r_add(moved, r_mul(r, delta[ax * NCP + c]));
+            moved = r_add(moved, r_mul(r, delta[ax * NDC + c]));
           }
       work[W_G + s] = g;
       work[W_B + s] = r_sub(frame[FR_RHS + ax * nc + s], moved);
@@ -155,7 +160,7 @@ void main() {
   // its list of constraint entries (O(nc K^3) in all, not O(nc N)).
   real mx = r_zero();
   const int ptr = cons_i[CI_PTR], idx = cons_i[CI_IDX];
-  for (int c = l; c < NCP; c += WG) {
+  for (int c = l; c < NDC; c += WG) {
     real d = r_zero();
     const real iw = inv_w[c];
     if (status == 0 && r_hi(iw) > 0.0) {
@@ -166,8 +171,8 @@ void main() {
       }
       d = r_mul(iw, s);
     }
-    delta[3 * NCP + c] = d;
-    delta[ax * NCP + c] = r_add(delta[ax * NCP + c], d);
+    delta[3 * NDC + c] = d;
+    delta[ax * NDC + c] = r_add(delta[ax * NDC + c], d);
     mx = r_max(mx, r_abs(d));
   }
   s_a[l] = mx;
