@@ -24,6 +24,28 @@ std::optional<MeshParts> parse_parts(const py::object& parts, RefF F, Index n_ve
   return parts_from_labels(F, labels, n_vertices);
 }
 
+/// The paper's face matrix with its columns in the mesh's own face order (Python's
+/// face_matrix: column j is face j of the caller's faces).
+CsrMatrix face_matrix_in_face_order(const Deformer& d, int threads) {
+  const CsrMatrix& A = d.face_matrix(threads);
+  const std::vector<std::int32_t>& fo = d.face_processing_order();
+  CsrMatrix B = A;
+  parallel_range(A.rows, threads, [&](Index b, Index e) {
+    std::vector<std::pair<std::int32_t, double>> row;
+    for (Index r = b; r < e; ++r) {
+      row.clear();
+      for (auto p = A.indptr[r]; p < A.indptr[r + 1]; ++p) row.emplace_back(fo[A.indices[p]], A.values[p]);
+      std::sort(row.begin(), row.end());
+      auto p = A.indptr[r];
+      for (const auto& [c, v] : row) {
+        B.indices[p] = c;
+        B.values[p++] = v;
+      }
+    }
+  });
+  return B;
+}
+
 }  // namespace
 
 void bind_deformer(py::module_& m) {

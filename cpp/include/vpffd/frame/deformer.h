@@ -227,7 +227,7 @@ class Deformer {
   const std::vector<std::int32_t>& face_processing_order() const { return face_order_; }
 
   /// The paper's N x F face matrix, built on first use and kept. Its column j
-  /// is face face_processing_order()[j]; see face_matrix_in_face_order().
+  /// is face face_processing_order()[j] (the identity without parts).
   const CsrMatrix& face_matrix(int threads = 0) const {
     std::lock_guard<std::mutex> lock(face_matrix_mutex_);
     if (!face_matrix_) face_matrix_ = std::make_unique<CsrMatrix>(face_basis_matrix(tables_, embedding_, Fs_, threads));
@@ -549,28 +549,6 @@ class Deformer {
   mutable std::mutex face_matrix_mutex_;
   mutable std::unique_ptr<CsrMatrix> face_matrix_;
 };
-
-/// The paper's face matrix with its columns in the mesh's own face order.
-inline CsrMatrix face_matrix_in_face_order(const Deformer& d, int threads = 0) {
-  const CsrMatrix& A = d.face_matrix(threads);
-  const std::vector<std::int32_t>& fo = d.face_processing_order();
-  CsrMatrix B = A;
-  parallel_range(A.rows, threads, [&](Index b, Index e) {
-    std::vector<std::pair<std::int32_t, double>> row;
-    for (Index r = b; r < e; ++r) {
-      row.clear();
-      for (auto p = A.indptr[r]; p < A.indptr[r + 1]; ++p) row.emplace_back(fo[A.indices[p]], A.values[p]);
-      std::sort(row.begin(), row.end());
-      auto p = A.indptr[r];
-      for (const auto& [c, v] : row) {
-        B.indices[p] = c;
-        B.values[p++] = v;
-      }
-    }
-  });
-  return B;
-}
-
 
 inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
   static const char axis_name[3] = {'x', 'y', 'z'};

@@ -86,16 +86,30 @@ struct VertexFaces {
   std::vector<std::int32_t> faces;
 };
 
+namespace detail {
+
+/// The face corners grouped by vertex (CSR): returns indptr (n_vertices + 1) and calls
+/// emit(slot, f, c) for corner c of face f, slot in [indptr[v], indptr[v+1]) of its
+/// vertex v = F(f, c); a vertex's corners come in face order.
+template <class Emit>
+std::vector<std::int32_t> corners_by_vertex(const Eigen::Ref<const RowMatrixX3i>& F, Index n_vertices, Emit&& emit) {
+  std::vector<std::int32_t> indptr(n_vertices + 1, 0);
+  for (Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) ++indptr[F(f, c) + 1];
+  for (Index v = 0; v < n_vertices; ++v) indptr[v + 1] += indptr[v];
+  std::vector<std::int32_t> fill(indptr.begin(), indptr.end() - 1);
+  for (Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) emit(static_cast<size_t>(fill[F(f, c)]++), f, c);
+  return indptr;
+}
+
+}  // namespace detail
+
 inline VertexFaces vertex_faces(const Eigen::Ref<const RowMatrixX3i>& F, Index n_vertices) {
   VertexFaces a;
-  a.indptr.assign(n_vertices + 1, 0);
-  for (Index f = 0; f < F.rows(); ++f)
-    for (int c = 0; c < 3; ++c) ++a.indptr[F(f, c) + 1];
-  for (Index v = 0; v < n_vertices; ++v) a.indptr[v + 1] += a.indptr[v];
-  a.faces.resize(a.indptr.back());
-  std::vector<std::int32_t> fill(a.indptr.begin(), a.indptr.end() - 1);
-  for (Index f = 0; f < F.rows(); ++f)
-    for (int c = 0; c < 3; ++c) a.faces[fill[F(f, c)]++] = static_cast<std::int32_t>(f);
+  a.faces.resize(3 * static_cast<size_t>(F.rows()));
+  a.indptr = detail::corners_by_vertex(F, n_vertices,
+                                       [&](size_t p, Index f, int) { a.faces[p] = static_cast<std::int32_t>(f); });
   return a;
 }
 
@@ -130,18 +144,11 @@ struct VertexFans {
 
 inline VertexRings vertex_rings(const Eigen::Ref<const RowMatrixX3i>& F, Index n_vertices) {
   VertexRings r;
-  r.indptr.assign(n_vertices + 1, 0);
-  for (Index f = 0; f < F.rows(); ++f)
-    for (int c = 0; c < 3; ++c) ++r.indptr[F(f, c) + 1];
-  for (Index v = 0; v < n_vertices; ++v) r.indptr[v + 1] += r.indptr[v];
-  r.pairs.resize(2 * static_cast<size_t>(r.indptr.back()));
-  std::vector<std::int32_t> fill(r.indptr.begin(), r.indptr.end() - 1);
-  for (Index f = 0; f < F.rows(); ++f)
-    for (int c = 0; c < 3; ++c) {
-      const size_t p = static_cast<size_t>(fill[F(f, c)]++);
-      r.pairs[2 * p] = F(f, (c + 1) % 3);
-      r.pairs[2 * p + 1] = F(f, (c + 2) % 3);
-    }
+  r.pairs.resize(6 * static_cast<size_t>(F.rows()));
+  r.indptr = detail::corners_by_vertex(F, n_vertices, [&](size_t p, Index f, int c) {
+    r.pairs[2 * p] = F(f, (c + 1) % 3);
+    r.pairs[2 * p + 1] = F(f, (c + 2) % 3);
+  });
   return r;
 }
 
