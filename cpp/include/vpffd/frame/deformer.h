@@ -150,14 +150,14 @@ class Deformer {
   }
 
   /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
-  /// vertex and face orders, the faces (as given and renumbered), the vertex
-  /// fans (closed mesh, ~32) or rings (open, ~52), the cell runs, the rest vertices
-  /// and, once built, the vertex-face lists (about 185 bytes for a closed mesh,
-  /// F = 2V, with the lists; 28 less without); 36 more once the rest mesh has moved
-  /// (the next embedding's buffers).
+  /// vertex and face orders, the faces (as given, renumbered and, with parts, grouped
+  /// by part), the vertex fans (closed mesh, ~32) or rings (open, ~52), the cell runs,
+  /// the rest vertices and, once built, the vertex-face lists (about 185 bytes for a
+  /// closed mesh, F = 2V, with the lists; 28 less without); 36 more once the rest mesh
+  /// has moved (the next embedding's buffers).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
-    double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size()) * per_int;
+    double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size() + Fp_.size()) * per_int;
     bytes += double(order_.size() + rank_.size() + face_order_.size()) * per_int;
     {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
@@ -272,7 +272,11 @@ class Deformer {
     } catch (const InvalidInputError& e) {
       throw InvalidInputError(std::string(where) + ": " + e.what() + parts_outside(V));
     }
-    const double rest_volume = signed_volume(V, F_, origin_, threads);
+    // With parts the rest volume is the sum of theirs (the frames' default target is
+    // too), each summed over its faces: one face pass either way.
+    VectorXd part_rest;
+    if (has_parts_) part_rest = part_volumes(V.data(), Fp_, face_start_, origin_, threads);
+    const double rest_volume = has_parts_ ? part_rest.sum() : signed_volume(V, F_, origin_, threads);
     // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
     // and every volume a frame reports or aims at would be inf or NaN.
     VPFFD_CHECK(std::isfinite(rest_volume), where, ": the mesh's enclosed volume overflows double precision (",
@@ -280,12 +284,12 @@ class Deformer {
     // Nothing below throws: the Deformer's state is replaced from here on.
     V_ = V;
     rest_volume_ = rest_volume;
+    rest_part_volumes_ = std::move(part_rest);
     {
       std::lock_guard<std::mutex> lock(face_matrix_mutex_);
       face_matrix_.reset();  // built from the old embedding
     }
-    // Frames run in cell order (vertex_order.h); the faces are renumbered to match
-    // and reordered too (below), so face sums round differently from unsorted ones.
+    // Frames run in cell order (vertex_order.h); the faces are renumbered to match (below).
     std::vector<std::int32_t> order = cell_order(tables_, E, threads, moving ? &order_ : nullptr);
     const int K = parts_.count;
     std::vector<Index> part_start(K + 1, 0);
@@ -309,7 +313,6 @@ class Deformer {
       std::swap(embedding_, E);
       runs_ = cell_runs(embedding_);
       set_seam_shifts(V);
-      if (has_parts_) rest_part_volumes_ = part_volumes_in_order(threads);
       return;
     }
     std::vector<std::int32_t> rank = inverse_order(order, threads);
@@ -363,7 +366,6 @@ class Deformer {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       adjacency_.reset();  // of the old faces' numbering
     }
-    if (has_parts_) rest_part_volumes_ = part_volumes_in_order(threads);
   }
 
   /// The faces' processing order: the mesh's own, each part's faces together
@@ -382,6 +384,8 @@ class Deformer {
     face_order_ = counting_sort(key, parts_.count);
     for (Index f = 0; f < nf; ++f) ++face_start_[key[f] + 1];
     for (int k = 0; k < parts_.count; ++k) face_start_[k + 1] += face_start_[k];
+    Fp_.resize(nf, 3);
+    for (Index f = 0; f < nf; ++f) Fp_.row(f) = F_.row(face_order_[f]);
   }
 
   /// Along a "shift" seam a wrapped vertex maps to D(wrapped) + its translation
@@ -392,15 +396,6 @@ class Deformer {
     if (T.rows() == 0) return;
     seam_shift_.resize(T.rows(), 3);
     for (Index i = 0; i < T.rows(); ++i) seam_shift_.row(i) = T.row(order_[i]);
-  }
-
-  /// Each part's rest volume, summed over its faces in processing order.
-  VectorXd part_volumes_in_order(int threads) const {
-    RowMatrixX3d Vs(n_vertices(), 3);
-    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
-      for (Index i = b; i < e; ++i) Vs.row(i) = V_.row(order_[i]);
-    });
-    return part_volumes(Vs.data(), Fs_, face_start_, origin_, threads);
   }
 
   /// With parts: which of them have vertices outside the lattice box (the test of
@@ -534,6 +529,7 @@ class Deformer {
   Embedding spare_embedding_;        ///< set_rest_vertices' buffers for the next embedding
   CellRuns runs_;                    ///< embedding_'s cell runs
   RowMatrixX3i Fs_;                  ///< faces with processing-order indices
+  RowMatrixX3i Fp_;                  ///< with parts: F_'s rows in face_order_ (the rest part volumes)
   EdgeReport edges_;
   mutable std::mutex adjacency_mutex_;
   mutable std::unique_ptr<VertexFaces> adjacency_;  ///< of Fs_, built on first use
