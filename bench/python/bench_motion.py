@@ -18,7 +18,8 @@ Scenes (meshes generated in code, the paper's counts):
     lattice under a twist: a larger mesh than the paper's, where the cost of moving
     the rest mesh against a frame is measured (issue 13: far below a frame).
 Per scene and backend: the median over ``--frames`` frames of moving the rest mesh
-(``set_rest_vertices``), of the frame (``deform``, plain and with every object's
+(``set_rest_vertices``; on Vulkan its device work runs in the next frame's
+submission, so it is counted in the frame), of the frame (``deform``, plain and with every object's
 volume kept, ``parts="components"``; on Vulkan the whole scene's volume), the fps of both together,
 and the move's cost as a fraction of each frame. The paper's
 figures (7.5, 8.4 and 5.5 fps) come from its own GPU (a GeForce 6800, 2006):

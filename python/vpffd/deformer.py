@@ -184,8 +184,9 @@ class Deformer:
         by frame. On the CPU it costs the embedding (straight into the processing
         order), a counting sort by cell, renumbering the faces and carrying the vertex
         fans over from the previous order (nothing of these when no vertex changed its
-        cell): about two plain FFD frames, half a volume-preserving one. On "vulkan" only the vertices go to the
-        device, which embeds them and sorts them by lattice cell itself (the rest
+        cell): about two plain FFD frames, half a volume-preserving one. On "vulkan"
+        only the vertices go to the device, which embeds them and sorts them by
+        lattice cell itself, first thing in the next frame's submission (the rest
         volume is summed on the host in float64); the result equals a Vulkan Deformer
         built on the moved mesh within the backend's float32 tolerance
         (``bench/python/bench_motion.py`` measures both). ``mesh`` becomes a new

@@ -387,6 +387,37 @@ TEST_P(VulkanP, MovedRestEqualsFreshAndCpu) {
   EXPECT_EQ(back.volume, first.volume);
 }
 
+// A move's device work waits for the next frame's submission: moves in a row embed
+// only the last, a frame refused on the host before submitting leaves it waiting, and
+// vertices() read before a frame runs it alone.
+TEST_P(VulkanP, MovesWaitForTheNextFrame) {
+  Scene s = sphere(3, 2, {8, 8, 8});
+  s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
+  auto gpu_ptr = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer& gpu = *gpu_ptr;
+  const RowMatrixX3d P = edit(s.L);
+  RowMatrixX3d X1 = s.V, X2 = s.V * 1.2;
+  X1.col(0).array() += 0.7;
+  X2.col(2).array() -= 0.9;
+  vulkan::VulkanDeformer fresh(X2, s.F, s.L, OutsidePolicy::Error, "", GetParam());
+  CorrectionOptions plain;
+  plain.preserve_volume = false;
+  gpu.set_rest_vertices(X1);
+  gpu.set_rest_vertices(X2);
+  EXPECT_THROW(gpu.deform(P.topRows(P.rows() - 1), plain), InvalidInputError);  // refused before submitting
+  const DeformResult a = gpu.deform(P, plain), b = fresh.deform(P, plain);
+  EXPECT_EQ((a.vertices - b.vertices).cwiseAbs().maxCoeff(), 0.0);
+  const Deformer cpu(X2, s.F, s.L);
+  expect_close(gpu.deform(P, {}), cpu.deform(P, {}), s.F, s.L, P);
+  // Read before a frame: the rest positions (float32 of X - origin), then the frame.
+  gpu.set_rest_vertices(X1);
+  const Vector3d o = gpu.origin();
+  EXPECT_LE((gpu.vertices() - X1).cwiseAbs().maxCoeff(),
+            std::ldexp(1.0, -24) * (X1.rowwise() - o.transpose()).cwiseAbs().maxCoeff());
+  vulkan::VulkanDeformer fresh1(X1, s.F, s.L, OutsidePolicy::Error, "", GetParam());
+  EXPECT_EQ((gpu.deform(P, plain).vertices - fresh1.deform(P, plain).vertices).cwiseAbs().maxCoeff(), 0.0);
+}
+
 TEST_P(VulkanP, MovedRestBadInput) {
   Scene s = sphere(2, 3, {5, 5, 5});
   auto gpu_ptr = make(s.V, s.F, s.L);

@@ -134,6 +134,7 @@ struct VulkanDeformer::Impl {
   std::mutex cpu_mutex;
   std::uint32_t sort_blocks = 1, sort_passes = 2;
   VkCommandBuffer embed_cb = VK_NULL_HANDLE;  // upload of up_rest and the device embedding
+  bool embed_pending = false;  // a move's embed_cb waits for the next submission (rest_embedding.cpp)
 
   // The device buffers, by their binding numbers (shaders/layout.h).
   enum Buf {
@@ -291,7 +292,23 @@ struct VulkanDeformer::Impl {
   // rest_embedding.cpp
   void stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where);
   void record_embedding();
-  void embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where);
+  // Stages X and its rest volume; the device embedding runs now, or with the next
+  // frame when `defer` (embed_pending).
+  void embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where, bool defer);
+  // embed_cb, re-recorded after a rebinding (forget_recordings), when a move waits for it.
+  VkCommandBuffer pending_embedding() {
+    if (!embed_pending) return VK_NULL_HANDLE;
+    if (!embed_cb) record_embedding();
+    return embed_cb;
+  }
+  // A waiting move's embedding submitted alone (before anything reads the device
+  // outside a frame).
+  void flush_embedding() {
+    if (const VkCommandBuffer cb = pending_embedding()) {
+      submit_and_wait(&cb, 1);
+      embed_pending = false;
+    }
+  }
   const Deformer& synced_cpu();
   const CorrectionOptions& plan_options(const CorrectionOptions& opt, CorrectionOptions& storage) const;
   void create_pipelines(const std::array<std::int32_t, 14>& spec);
@@ -315,6 +332,7 @@ struct VulkanDeformer::Impl {
 
   // #V x 3 device vertices in the input order (runs readback() alone).
   RowMatrixX3d read_vertices() {
+    flush_embedding();  // before a frame the device vertices are the rest positions
     const VkCommandBuffer cb = readback();
     submit_and_wait(&cb, 1);
     return unpack_vertices();

@@ -17,7 +17,12 @@
 //   in float64 (signed_volume, O(F), no embedding): the very number a CPU Deformer of
 //   the moved mesh keeps, so preserve_volume aims at the same target on both
 //   backends; a device sum in reals would round differently and need a read-back.
-// - On the device, one submission (embed_cb, recorded once): embed.comp (span, tau and
+// - A move's device work (embed_cb, recorded once) is not submitted by
+//   set_rest_vertices: it goes first in the next frame's submission (one submission
+//   and one wait per frame, as the paper's two-phase evaluation runs), or alone when
+//   something reads the device before a frame (flush_embedding). Moves in a row
+//   without a frame between them embed only the last one (up_rest holds its positions).
+// - On the device (embed_cb): embed.comp (span, tau and
 //   cell per slot; X = the rest positions), an LSD radix sort of the (cell, slot) pairs
 //   (radix.comp with scan.comp: 8 bits per pass, integer work only and
 //   stable, so the order never depends on scheduling: (cell, slot) ascending), then
@@ -158,13 +163,13 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
                     "nothing of the place in the box beyond); move the mesh back by whole extents");
 }
 
-void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) {
+void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where, bool defer) {
   stage_rest(X, where);  // throws before anything changes
   const double vol = signed_volume(X, cpu->faces(), origin);
   VPFFD_CHECK(std::isfinite(vol), where, ": the mesh's enclosed volume overflows double precision (", vol,
               "; coordinates up to ", X.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
-  if (!embed_cb) record_embedding();  // after a rebinding (forget_recordings)
-  submit_and_wait(&embed_cb, 1);
+  embed_pending = true;
+  if (!defer) flush_embedding();
   rest = X;
   rest_vol = vol;
   normals_ready = false;  // the rest normals are of the old positions
@@ -196,7 +201,7 @@ const CorrectionOptions& VulkanDeformer::Impl::plan_options(const CorrectionOpti
 void VulkanDeformer::set_rest_vertices(const Eigen::Ref<const RowMatrixX3d>& X) {
   Impl& m = *impl_;
   std::lock_guard<std::mutex> lock(m.frame_mutex);
-  m.embed_rest(X, "set_rest_vertices");
+  m.embed_rest(X, "set_rest_vertices", /*defer=*/true);
   m.moved = true;
   std::lock_guard<std::mutex> cpu_lock(m.cpu_mutex);
   m.cpu_stale = true;

@@ -249,7 +249,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   // move: one code path, so the static and moved frames cannot drift apart.
   slot = order;
   record_embedding();
-  embed_rest(c.rest_vertices(), "VulkanDeformer");
+  embed_rest(c.rest_vertices(), "VulkanDeformer", /*defer=*/false);
 
   // No constraints until a frame has some: every frame's solve reads the block.
   begin();

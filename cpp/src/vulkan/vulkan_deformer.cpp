@@ -178,16 +178,20 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     put_reals(m.up_delta.mapped(), dl.data(), dl.size(), m.ff);
   }
 
-  // --- submit: [uploads,] the recorded frame ---------------------------------------------
+  // --- submit: [a move's embedding,] [uploads,] the recorded frame -------------------------
   const Impl::Recorded& rec = m.frame_commands(shape);
   detail::check(vkEndCommandBuffer(m.cmd), "vkEndCommandBuffer");
-  VkCommandBuffer cbs[4];
+  VkCommandBuffer cbs[5];
   std::uint32_t n_cbs = 0;
+  // After every rebinding above (they drop recordings): the frame's first barrier
+  // orders the embedding's writes before the FFD reads them.
+  if (const VkCommandBuffer e = m.pending_embedding()) cbs[n_cbs++] = e;
   if (aux) cbs[n_cbs++] = m.cmd;
   cbs[n_cbs++] = rec.cb;
   if (read_vertices) cbs[n_cbs++] = m.readback();
   if (tail) cbs[n_cbs++] = tail->record(shape.mode != Shape::Plain);
   m.submit_and_wait(cbs, n_cbs);
+  m.embed_pending = false;
   if (new_invw && shape.mode == Shape::DeviceSteps) m.invw_uploaded = inv_weight;
   if (normals && !m.normals_ready) {
     m.normals_ready = true;

@@ -155,6 +155,10 @@ class VulkanDeformer {
   /// done there too). The rest volume is
   /// computed on the host in float64 (O(F)). The vertex order of the device buffers
   /// (vertex_order()) and the faces do not change. Not to be called while a frame runs.
+  /// The device work is not submitted here: it runs first in the next frame's
+  /// submission (one submission and one wait per frame), or alone when vertices() is
+  /// read before a frame; until then vertex_buffer_handle()'s buffer holds the last
+  /// frame's vertices.
   /// @param[in] X  #V x 3 new rest vertices, world units
   /// @throws InvalidInputError for a wrong shape, non-finite coordinates, vertices too far
   ///         from the lattice, or outside its box (unless built with
