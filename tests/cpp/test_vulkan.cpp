@@ -388,8 +388,8 @@ TEST_P(VulkanP, MovedRestEqualsFreshAndCpu) {
 }
 
 // A move's device work waits for the next frame's submission: moves in a row embed
-// only the last, a frame refused on the host before submitting leaves it waiting, and
-// vertices() read before a frame runs it alone.
+// only the last, a refused move or a frame refused on the host before submitting
+// leave it waiting, and vertices() read before a frame runs it alone.
 TEST_P(VulkanP, MovesWaitForTheNextFrame) {
   Scene s = sphere(3, 2, {8, 8, 8});
   s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
@@ -404,6 +404,10 @@ TEST_P(VulkanP, MovesWaitForTheNextFrame) {
   plain.preserve_volume = false;
   gpu.set_rest_vertices(X1);
   gpu.set_rest_vertices(X2);
+  // A refused move stages its positions as it tests them: X2 must still be what embeds.
+  RowMatrixX3d bad = X1;
+  bad(bad.rows() - 1, 1) = std::nan("");
+  EXPECT_THROW(gpu.set_rest_vertices(bad), InvalidInputError);
   EXPECT_THROW(gpu.deform(P.topRows(P.rows() - 1), plain), InvalidInputError);  // refused before submitting
   const DeformResult a = gpu.deform(P, plain), b = fresh.deform(P, plain);
   EXPECT_EQ((a.vertices - b.vertices).cwiseAbs().maxCoeff(), 0.0);

@@ -164,7 +164,14 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
 }
 
 void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where, bool defer) {
-  stage_rest(X, where);  // throws before anything changes
+  try {
+    stage_rest(X, where);  // throws before anything but up_rest changes
+  } catch (...) {
+    // stage_rest fills up_rest as it tests: a move that waits for the next frame
+    // must find its own positions there again.
+    if (embed_pending) stage_rest(rest, where);
+    throw;
+  }
   const double vol = signed_volume(X, cpu->faces(), origin);
   VPFFD_CHECK(std::isfinite(vol), where, ": the mesh's enclosed volume overflows double precision (", vol,
               "; coordinates up to ", X.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
