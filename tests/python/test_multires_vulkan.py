@@ -24,7 +24,8 @@ import vpffd
 from vpffd import _core
 from vpffd.normals import angles_deg, vertex_normals
 from gpu_bounds import Bounds, multires_bounds
-from test_vulkan import DEVICE, PRECISIONS, SEL
+from test_vulkan import DEVICE, SEL
+from test_vulkan import precision  # noqa: F401 (the fixture: both precisions, float64 where the device has it)
 
 pytestmark = pytest.mark.skipif(DEVICE is None, reason="no Vulkan backend in this build or no suitable device")
 
@@ -53,13 +54,6 @@ EDITS = {
 # (subdivisions, stretch, smoothing, lattice shape): a sphere and an elongated body,
 # small because lavapipe is a CPU.
 SCENES = {"sphere": (4, (1.0, 1.0, 1.0), 10, 6), "body": (3, (1.0, 1.0, 2.5), 3, (5, 5, 7))}
-
-
-@pytest.fixture(scope="module", params=PRECISIONS)
-def precision(request):
-    if request.param == "float64" and not DEVICE["float64"]:
-        pytest.skip("the device has no shaderFloat64")
-    return request.param
 
 
 @pytest.fixture(scope="module", params=sorted(SCENES))

@@ -25,16 +25,10 @@ import pytest
 import vpffd
 from vpffd import _core
 from gpu_bounds import U32, U_SUM, check_frame
-from test_vulkan import DEVICE, PRECISIONS, SEL, edit, gpu_deformer
+from test_vulkan import DEVICE, SEL, edit, gpu_deformer
+from test_vulkan import precision  # noqa: F401 (the fixture: both precisions, float64 where the device has it)
 
 pytestmark = pytest.mark.skipif(DEVICE is None, reason="no Vulkan backend in this build or no suitable device")
-
-
-@pytest.fixture(scope="module", params=PRECISIONS)
-def precision(request):
-    if request.param == "float64" and not DEVICE["float64"]:
-        pytest.skip("the device has no shaderFloat64")
-    return request.param
 
 
 def _check_parameter_precision(lat):

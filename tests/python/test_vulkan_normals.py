@@ -9,7 +9,8 @@ import vpffd
 from vpffd.edits import bend, twist
 from vpffd.normals import angles_deg, deformed_normals, vertex_normals
 from gpu_bounds import normal_angle_bound
-from test_vulkan import DEVICE, PRECISIONS, SEL, edit
+from test_vulkan import DEVICE, SEL, edit
+from test_vulkan import precision  # noqa: F401 (the fixture: both precisions, float64 where the device has it)
 
 pytestmark = pytest.mark.skipif(DEVICE is None, reason="no Vulkan backend in this build or no suitable device")
 
@@ -30,13 +31,6 @@ def torus(R=1.0, r=0.35, nu=48, nv=24):
 
 MESHES = {"sphere": lambda: vpffd.shapes.icosphere(3), "torus": torus}
 EDITS = {"twist": lambda P: twist(P, 50.0, axis="z"), "bend": lambda P: bend(P, 40.0, axis="x", toward="z")}
-
-
-@pytest.fixture(scope="module", params=PRECISIONS)
-def precision(request):
-    if request.param == "float64" and not DEVICE["float64"]:
-        pytest.skip("the device has no shaderFloat64")
-    return request.param
 
 
 @pytest.fixture(scope="module", params=sorted(MESHES))

@@ -11,7 +11,8 @@ import vpffd
 from vpffd import edits
 from vpffd.normals import angles_deg, deformed_normals, vertex_normals
 from gpu_bounds import Bounds, normal_angle_bound
-from test_vulkan import DEVICE, PRECISIONS, SEL, assert_close
+from test_vulkan import DEVICE, SEL, assert_close
+from test_vulkan import precision  # noqa: F401 (the fixture: both precisions, float64 where the device has it)
 
 pytestmark = pytest.mark.skipif(DEVICE is None, reason="no Vulkan backend in this build or no suitable device")
 
@@ -48,13 +49,6 @@ def edited(name, lat, seed=3, amount=0.01):
     about `amount` of the box diagonal."""
     rng = np.random.default_rng(seed)
     return LATTICES[name][3](lat) + amount * np.linalg.norm(EXT) * rng.standard_normal(lat.rest_points.shape)
-
-
-@pytest.fixture(scope="module", params=PRECISIONS)
-def precision(request):
-    if request.param == "float64" and not DEVICE["float64"]:
-        pytest.skip("the device has no shaderFloat64")
-    return request.param
 
 
 @pytest.fixture(scope="module", params=sorted(LATTICES))
