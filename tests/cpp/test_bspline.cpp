@@ -116,6 +116,8 @@ TEST(BSpline, SpanLocatorFindsFindSpansSpan) {
       for (double u : us) {
         const int s = locate(u);
         ASSERT_EQ(s, find_span(t, n, d, u)) << "d " << d << " trial " << trial << " u " << u;
+        // (u - t_s) < h is exact-or-rounded down to at most h, times fl(1/h) <= (1 + eps)/h:
+        // the product is below (1 + eps)^2 < 1 + 1e-15 (eps = 2^-53).
         if (u >= t[d] && u < t[n]) EXPECT_EQ(locate.local(u, s) >= 0.0 && locate.local(u, s) < 1.0 + 1e-15, true);
       }
     }

@@ -61,6 +61,14 @@ Scene sphere(int subdiv, int degree, std::array<int, 3> dims) {
   return s;
 }
 
+/// The unit sphere in a quadratic 8^3 lattice over [-3, 3]^3: room to move it around,
+/// and control points that touch none of its vertices.
+Scene sphere_in_big_lattice(int subdiv) {
+  Scene s = sphere(subdiv, 2, {8, 8, 8});
+  s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
+  return s;
+}
+
 // A smooth, volume-changing edit of the rest control points.
 RowMatrixX3d edit(const Lattice& L) {
   RowMatrixX3d P = rest_control_points(L);
@@ -281,8 +289,7 @@ TEST_P(VulkanP, RoundsAndManyConstraints) {
 
 TEST_P(VulkanP, SameErrorsAsCpu) {
   // A small sphere in a big lattice: the corner control point does not touch it.
-  Scene s = sphere(2, 2, {8, 8, 8});
-  s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
+  Scene s = sphere_in_big_lattice(2);
   Deformer cpu(s.V, s.F, s.L);
   auto gpu_ptr = make(s.V, s.F, s.L);
   vulkan::VulkanDeformer& gpu = *gpu_ptr;
@@ -348,8 +355,7 @@ TEST_P(VulkanP, SecondDeformerAndManyFrames) {
 // which hold for the device's embedding as tests/python/test_vulkan_motion.py derives
 // (the reals' error in tau, 4 2^-44 max|u| / min span width, is far below float32's).
 TEST_P(VulkanP, MovedRestEqualsFreshAndCpu) {
-  Scene s = sphere(3, 2, {8, 8, 8});
-  s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
+  Scene s = sphere_in_big_lattice(3);
   Deformer cpu(s.V, s.F, s.L);
   auto gpu_ptr = make(s.V, s.F, s.L);
   vulkan::VulkanDeformer& gpu = *gpu_ptr;
@@ -391,8 +397,7 @@ TEST_P(VulkanP, MovedRestEqualsFreshAndCpu) {
 // only the last, a refused move or a frame refused on the host before submitting
 // leave it waiting, and vertices() read before a frame runs it alone.
 TEST_P(VulkanP, MovesWaitForTheNextFrame) {
-  Scene s = sphere(3, 2, {8, 8, 8});
-  s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
+  Scene s = sphere_in_big_lattice(3);
   auto gpu_ptr = make(s.V, s.F, s.L);
   vulkan::VulkanDeformer& gpu = *gpu_ptr;
   const RowMatrixX3d P = edit(s.L);
@@ -465,8 +470,7 @@ TEST_P(VulkanP, MovedRestBadInput) {
 // A volume correction found impossible on the device, after the frame ran, must not
 // leave that frame's vertices behind.
 TEST_P(VulkanP, FailedFrameKeepsLastGoodVertices) {
-  Scene s = sphere(2, 2, {8, 8, 8});
-  s.L = make_lattice(Vector3d::Constant(-3), Vector3d::Constant(3), {8, 8, 8}, {2, 2, 2});
+  Scene s = sphere_in_big_lattice(2);
   auto gpu_ptr = make(s.V, s.F, s.L);
   vulkan::VulkanDeformer& gpu = *gpu_ptr;
   const RowMatrixX3d rest = gpu.vertices();

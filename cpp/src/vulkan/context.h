@@ -28,6 +28,17 @@ std::string result_string(VkResult r);
 /// Throws DeviceError "vulkan: <call> failed: <result>" unless r is VK_SUCCESS.
 void check(VkResult r, const char* call);
 
+/// One primary command buffer from `pool` (freed by vkFreeCommandBuffers or with the pool).
+inline VkCommandBuffer allocate_command_buffer(VkDevice d, VkCommandPool pool) {
+  VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  cai.commandPool = pool;
+  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  cai.commandBufferCount = 1;
+  VkCommandBuffer cb = VK_NULL_HANDLE;
+  check(vkAllocateCommandBuffers(d, &cai, &cb), "vkAllocateCommandBuffers");
+  return cb;
+}
+
 /// The instance, shared by every device and deformer of the process while any lives.
 struct Instance {
   VkInstance handle = VK_NULL_HANDLE;

@@ -317,11 +317,7 @@ struct VulkanDeformer::Impl {
   VkCommandBuffer readback() {
     if (readback_cb) return readback_cb;
     rb_X = Buffer(*dev, 12 * nv, Buffer::Readback, "vertices (read-back)");
-    VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-    cai.commandPool = cmd_pool.get();
-    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    cai.commandBufferCount = 1;
-    detail::check(vkAllocateCommandBuffers(d, &cai, &readback_cb), "vkAllocateCommandBuffers");
+    readback_cb = detail::allocate_command_buffer(d, cmd_pool.get());
     begin(readback_cb, false);
     barrier(readback_cb);
     copy(readback_cb, buf[bX], rb_X, 12 * nv);

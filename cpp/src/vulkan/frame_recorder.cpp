@@ -26,11 +26,7 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
   Recorded r;
   r.shape = shape;
   r.last_use = frames;
-  VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-  cai.commandPool = cmd_pool.get();
-  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  cai.commandBufferCount = 1;
-  detail::check(vkAllocateCommandBuffers(d, &cai, &r.cb), "vkAllocateCommandBuffers");
+  r.cb = detail::allocate_command_buffer(d, cmd_pool.get());
   recorded.push_back(r);  // freed with the others if recording fails
   const VkCommandBuffer cb = r.cb;
   const int k = static_cast<int>(shape.axes.size());

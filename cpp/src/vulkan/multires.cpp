@@ -85,11 +85,7 @@ void VulkanMultires::Impl::create_pipeline(const std::array<std::int32_t, 9>& sp
 }
 
 void VulkanMultires::Impl::record_frame() {
-  VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-  cai.commandPool = cmd_pool.get();
-  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  cai.commandBufferCount = 1;
-  detail::check(vkAllocateCommandBuffers(d, &cai, &frame_cb), "vkAllocateCommandBuffers");
+  frame_cb = detail::allocate_command_buffer(d, cmd_pool.get());
   VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
   detail::check(vkBeginCommandBuffer(frame_cb, &bi), "vkBeginCommandBuffer");
   const VkPipelineStageFlags cs = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, tr = VK_PIPELINE_STAGE_TRANSFER_BIT;
@@ -281,12 +277,7 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
 
   // One-time upload through staging buffers, one submission.
   {
-    VkCommandBuffer cb = VK_NULL_HANDLE;
-    VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-    cai.commandPool = cmd_pool.get();
-    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    cai.commandBufferCount = 1;
-    detail::check(vkAllocateCommandBuffers(d, &cai, &cb), "vkAllocateCommandBuffers");
+    const VkCommandBuffer cb = detail::allocate_command_buffer(d, cmd_pool.get());
     VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
     bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     detail::check(vkBeginCommandBuffer(cb, &bi), "vkBeginCommandBuffer");
@@ -313,11 +304,7 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
   groups_cp = static_cast<std::uint32_t>(
       std::clamp<Index>((N + VPFFD_MR_GROUP - 1) / VPFFD_MR_GROUP, 1, dev->limits.maxComputeWorkGroupCount[0]));
   record_frame();
-  VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-  cai.commandPool = cmd_pool.get();
-  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  cai.commandBufferCount = 1;
-  detail::check(vkAllocateCommandBuffers(d, &cai, &tail_cb), "vkAllocateCommandBuffers");
+  tail_cb = detail::allocate_command_buffer(d, cmd_pool.get());
 }
 
 // ---- public API ----------------------------------------------------------------

@@ -54,11 +54,7 @@
 namespace vpffd::vulkan {
 
 void VulkanDeformer::Impl::record_embedding() {
-  VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-  cai.commandPool = cmd_pool.get();
-  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  cai.commandBufferCount = 1;
-  detail::check(vkAllocateCommandBuffers(d, &cai, &embed_cb), "vkAllocateCommandBuffers");
+  embed_cb = detail::allocate_command_buffer(d, cmd_pool.get());
   const VkCommandBuffer cb = embed_cb;
   begin(cb, false);
   barrier(cb);

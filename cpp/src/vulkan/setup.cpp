@@ -191,11 +191,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   VkCommandPool cmd_pool_h = VK_NULL_HANDLE;
   detail::check(vkCreateCommandPool(d, &cpi, nullptr, &cmd_pool_h), "vkCreateCommandPool");
   cmd_pool.adopt(d, cmd_pool_h, vkDestroyCommandPool);
-  VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-  cai.commandPool = cmd_pool.get();
-  cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  cai.commandBufferCount = 1;
-  detail::check(vkAllocateCommandBuffers(d, &cai, &cmd), "vkAllocateCommandBuffers");
+  cmd = detail::allocate_command_buffer(d, cmd_pool.get());
   VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
   VkFence fence_h = VK_NULL_HANDLE;
   detail::check(vkCreateFence(d, &fi, nullptr, &fence_h), "vkCreateFence");
