@@ -181,6 +181,19 @@ def check_frame(g, c, mesh, lat, P=None, cpu=None):
 # the CPU's normal is at most asin(|dn| / |cof(J) n0|), plus 2 u for the normalisation
 # and 2^-40 for the CPU's own double arithmetic (its J errs by a few 1e-16 relative).
 # Evaluated per vertex on the vertex's own span (both spans for a vertex on a knot).
+#
+# The rest normal n0 itself is the device's (shaders/rest_normals.comp): the sum over the
+# vertex's faces of (x1 - x0) x (x2 - x0) in reals, divided by its largest component and
+# rounded to float32 once (the u of n0 above). Before that rounding it errs from the
+# exact sum n by the reals' arithmetic: the rest positions y = (x - o) / s are stored with
+# relative error U_SUM, so each edge errs by 2 U_SUM max|x - o| (plus U_SUM |edge| for
+# its subtraction); each cross product component, a_d b_e - a_e b_d with two products and
+# a subtraction, by 3 U_SUM |a| |b| plus the edges' errors times the other edge; and the
+# sum over the vertex's m faces adds m U_SUM sum_f |a_f| |b_f|. Per component:
+#   |delta| <= sum_f [(m + 5) U_SUM |a_f| |b_f| + 2 U_SUM (2 X_f + |a_f| + |b_f|) (|a_f| + |b_f|)]
+# (X_f = max |x - o| over the face's corners; s cancels), and as a vector sqrt(3) times
+# that. Its direction then errs by rho = sqrt(3) |delta| / |n|, which adds
+# rho sum_a |c~_b| |c~_c| to |dn| (n0 of unit length: each |delta_a| / |n| <= rho).
 
 def _power_forms(knots, degree):
     """{span: C} with C[q, r] the power-form coefficient of tau^q of function r on each
@@ -276,12 +289,37 @@ def _jacobian_errors(lat, points, control_points, dmax=0.0):
     return e, R, np.array(eB)
 
 
-def normal_angle_bound(lat, rest_vertices, control_points, jacobians, rest_normals, offsets=None):
+def rest_normal_errors(lat, rest_vertices, faces):
+    """(V,) rho: the bound of the derivation above on the direction error of the device's
+    rest normals (rest_normals.comp) before their float32 rounding, relative to |n|."""
+    X = np.asarray(rest_vertices, float)
+    F = np.asarray(faces, np.int64)
+    o = 0.5 * (lat.box_min + lat.box_max)
+    a = np.linalg.norm(X[F[:, 1]] - X[F[:, 0]], axis=1)
+    b = np.linalg.norm(X[F[:, 2]] - X[F[:, 0]], axis=1)
+    Xf = np.linalg.norm(X[F] - o, axis=2).max(axis=1)
+    deg = np.bincount(F.ravel(), minlength=len(X))
+    n = np.zeros((len(X), 3))
+    cross = np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
+    for c in range(3):
+        np.add.at(n, F[:, c], cross)
+    delta = np.zeros(len(X))
+    for c in range(3):
+        v = F[:, c]
+        np.add.at(delta, v, (deg[v] + 5) * U_SUM * a * b + 2 * U_SUM * (2 * Xf + a + b) * (a + b))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = np.sqrt(3) * delta / np.linalg.norm(n, axis=1)
+    return np.where(np.isfinite(rho), rho, np.inf)
+
+
+def normal_angle_bound(lat, rest_vertices, faces, control_points, jacobians, rest_normals, offsets=None):
     """(V,) bound in degrees on the angle between the device's normals and
-    deformed_normals_exact of the same control points (the derivation above).
+    deformed_normals_exact of the same control points (the derivation above), the rest
+    normals computed on the device from ``rest_vertices`` and ``faces``.
     ``offsets``: the frame's offsets (their rounding adds to the control points')."""
     dmax = 0.0 if offsets is None else float(np.abs(np.asarray(offsets, float)).max(initial=0.0)) * np.sqrt(3)
     e, _, _ = _jacobian_errors(lat, rest_vertices, control_points, dmax)
+    rho = rest_normal_errors(lat, rest_vertices, faces)
     n_v = len(e)
     J = np.asarray(jacobians, float).reshape(-1, 3, 3)
     cols = np.linalg.norm(J, axis=1)  # |c_a| per vertex, (V, 3)
@@ -292,6 +330,7 @@ def normal_angle_bound(lat, rest_vertices, control_points, jacobians, rest_norma
         b, c = (a + 1) % 3, (a + 2) % 3
         dn += n0[:, a] * (e[:, b] * cols[:, c] + cols[:, b] * e[:, c] + e[:, b] * e[:, c]
                           + 7 * U32 * (cols[:, b] + e[:, b]) * (cols[:, c] + e[:, c]))
+        dn += rho * (cols[:, b] + e[:, b]) * (cols[:, c] + e[:, c])
     Jc = [J[:, :, a] for a in range(3)]
     n = (N0[:, :1] * np.cross(Jc[1], Jc[2]) + N0[:, 1:2] * np.cross(Jc[2], Jc[0])
          + N0[:, 2:] * np.cross(Jc[0], Jc[1]))

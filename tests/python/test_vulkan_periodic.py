@@ -176,7 +176,7 @@ def test_normals_match_cpu(setup):
     for kw in (dict(preserve_volume=False), dict(), dict(axes="zx", rounds=2)):
         g = gpu.deform(P, normals=True, **kw)
         ang = angles_deg(g.normals, deformed_normals(cpu, g.control_points))
-        bound = normal_angle_bound(lat, mesh.vertices, g.control_points, cpu.jacobians(g.control_points),
+        bound = normal_angle_bound(lat, mesh.vertices, mesh.faces, g.control_points, cpu.jacobians(g.control_points),
                                    vertex_normals(mesh), g.offsets)
         assert np.all(ang <= bound), (ang.max(), bound[np.argmax(ang - bound)])
         # The 0.01 degree, proved by the bound for this edit.

@@ -21,7 +21,6 @@
 #include "shaders/layout.h"
 #include "vk_handle.h"
 #include "vpffd/backend/vulkan.h"
-#include "vpffd/ffd/normals.h"
 #include "vpffd/shaders/pipes.h"
 
 namespace vpffd::vulkan {
@@ -149,7 +148,6 @@ struct VulkanDeformer::Impl {
   static_assert(kNumBuf == int(kBindings), "one binding per device buffer");
   Buffer buf[kNumBuf];
   Buffer up_P, up_invw, up_frame, up_delta, up_cons_i, up_cons_d, rb_delta, rb_stats, rb_red, rb_X, rb_N;
-  Buffer up_n0;  // staging of the rest normals, released after their upload
   Buffer up_rest;  // staging of the rest positions (3V reals)
   bool normals_ready = false;  // the rest normals are on the device (a submission ran)
   // The vertices before the frame now running: a frame whose failure is only known
@@ -362,19 +360,16 @@ struct VulkanDeformer::Impl {
   }
 
   // The first frame with normals after construction or a move: their buffers, and the
-  // rest normals uploaded (into `cmd`, begun) as deformed_normals uses them
-  // (vertex_normals of the rest mesh), in the device order. Returns whether `cmd` got work.
+  // rest normals computed on the device (rest_normals.comp, into `cmd`, begun; after a
+  // move's embedding, which writes the rest positions, in the same submission).
+  // Returns whether `cmd` got work.
   bool prepare_normals() {
     if (normals_ready) return false;
-    reserve(bNrm0, &up_n0, 12 * nv, "rest normals");
+    reserve(bNrm0, nullptr, 12 * nv, "rest normals");
     reserve(bNrm, nullptr, 12 * nv, "normals");
-    // After a move the buffers stay but their staging went with the first upload.
-    if (!up_n0.handle()) up_n0 = Buffer(*dev, 12 * nv, Buffer::Upload, "rest normals");
-    const RowMatrixX3d n0 = vertex_normals(rest, cpu->faces());
-    float* p = static_cast<float*>(up_n0.mapped());
-    for (Index i = 0; i < nv; ++i)
-      for (int a = 0; a < 3; ++a) p[3 * i + a] = static_cast<float>(n0(slot[i], a));
-    copy(up_n0, buf[bNrm0], 12 * nv);
+    barrier(cmd);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
+    dispatch(cmd, kRestNormals, g_vert, Push{});
     if (!rb_N.handle()) rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "normals (read-back)");
     return true;
   }

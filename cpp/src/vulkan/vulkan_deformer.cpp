@@ -193,10 +193,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   m.submit_and_wait(cbs, n_cbs);
   m.embed_pending = false;
   if (new_invw && shape.mode == Shape::DeviceSteps) m.invw_uploaded = inv_weight;
-  if (normals && !m.normals_ready) {
-    m.normals_ready = true;
-    m.up_n0 = Impl::Buffer();
-  }
+  if (normals) m.normals_ready = true;
 
   FrameTimings tm;
   const std::uint32_t ns = rec.n_steps;

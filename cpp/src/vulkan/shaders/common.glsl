@@ -90,8 +90,9 @@ layout(std430, set = 0, binding = VPFFD_B_RED) buffer BufRed { real red[]; };  /
 layout(std430, set = 0, binding = VPFFD_B_CONS_D) readonly buffer BufConsD { real cons_d[]; };
 // Scratch vectors of the solve workgroup; coherent: its invocations exchange them.
 layout(std430, set = 0, binding = VPFFD_B_WORK) coherent buffer BufWork { real work[]; };
-// normals.comp: the rest vertex normals (3V, unit, uploaded once) and the deformed ones (3V).
-layout(std430, set = 0, binding = VPFFD_B_NRM0) readonly buffer BufNrm0 { float nrm0[]; };
+// normals.comp: the rest vertex normals (3V, scaled to a largest component of 1;
+// rest_normals.comp) and the deformed ones (3V).
+layout(std430, set = 0, binding = VPFFD_B_NRM0) buffer BufNrm0 { float nrm0[]; };
 layout(std430, set = 0, binding = VPFFD_B_NRM) writeonly buffer BufNrm { float nrm[]; };
 // normals.comp: `poly` in reals (same layout), then per axis and span d tau / d y.
 layout(std430, set = 0, binding = VPFFD_B_NRM_TAB) readonly buffer BufNrmTab { real nrm_tab[]; };
