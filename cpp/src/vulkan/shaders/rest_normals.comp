@@ -2,9 +2,10 @@
 // The rest vertex normals n0 that normals.comp maps, from the rest positions on the
 // device: per slot the sum of its faces' cross products (x1 - x0) x (x2 - x0), the
 // area-weighted normal of ffd/normals.h's vertex_normals, over the vertex-face lists
-// in their fixed order (so the result does not depend on scheduling). Run by the first
-// frame with normals after construction or a move, in its own submission: a moved
-// object's normals then cost no host pass over the mesh and no upload.
+// in their fixed order (so the result does not depend on scheduling). Recorded by the
+// first frame with normals after construction or a move, in that frame's submission
+// (after the move's embedding, which writes the rest positions): a moved object's
+// normals then cost no host pass over the mesh and no upload.
 //
 // Edges, products and sums are reals (float64, or float-float with relative rounding
 // U_SUM per operation), so the one float32 rounding per component at the end is what
