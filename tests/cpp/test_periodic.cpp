@@ -9,16 +9,7 @@ using namespace vpffd;
 namespace {
 
 Lattice periodic_lattice(std::array<int, 3> distinct, std::array<int, 3> degree, std::array<Seam, 3> seam) {
-  Lattice L;
-  L.degree = degree;
-  L.box_min = Vector3d(-1.0, 0.5, 2.0);
-  L.box_max = Vector3d(2.0, 1.5, 2.75);
-  L.seam = seam;
-  for (int a = 0; a < 3; ++a)
-    L.knots[a] = seam[a] == Seam::None ? clamped_uniform_knots(distinct[a], degree[a])
-                                       : periodic_uniform_knots(distinct[a], degree[a]);
-  validate_lattice(L);
-  return L;
+  return make_lattice(Vector3d(-1.0, 0.5, 2.0), Vector3d(2.0, 1.5, 2.75), distinct, degree, seam);
 }
 
 RowMatrixX3d random_points(Index n, std::mt19937& rng) {
@@ -152,12 +143,8 @@ TEST(Periodic, ValidationNamesTheProblem) {
 // corrected offsets are tied by copies, and the volume is exact.
 TEST(Periodic, DeformerCorrectsOnDistinctPoints) {
   const TriMesh m = box_mesh(6, 1.0);
-  Lattice L;
-  L.degree = {3, 3, 3};
-  L.box_min = Vector3d(-0.6, -0.6, -0.6);
-  L.box_max = Vector3d(0.6, 0.6, 0.6);
-  L.seam = {Seam::Shift, Seam::None, Seam::None};
-  L.knots = {periodic_uniform_knots(6, 3), clamped_uniform_knots(5, 3), clamped_uniform_knots(5, 3)};
+  const Lattice L = make_lattice(Vector3d::Constant(-0.6), Vector3d::Constant(0.6), {6, 5, 5}, {3, 3, 3},
+                                 {Seam::Shift, Seam::None, Seam::None});
   Deformer d(m.V, m.F, L);
   ASSERT_EQ(d.n_control_points(), 6 * 5 * 5);
   RowMatrixX3d P = restrict_points(d.ties(), rest_control_points(L));

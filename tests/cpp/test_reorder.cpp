@@ -132,13 +132,8 @@ TEST(MovingRest, OpenMeshPartsAndPeriodicEqualAFreshDeformer) {
   two.V << s.V, s.V.rowwise() + Eigen::RowVector3d(2.5, 0, 0);
   two.F << s.F, s.F.array() + int(s.V.rows());
   const MeshParts parts = parts_from_components(two.F, two.V.rows());
-  Lattice L;
-  L.degree = {3, 2, 2};
-  L.box_min = Vector3d(-1.5, -1.5, -1.5);
-  L.box_max = Vector3d(5.5, 1.5, 1.5);
-  L.seam = {Seam::Shift, Seam::None, Seam::None};
-  L.knots = {periodic_uniform_knots(8, 3), clamped_uniform_knots(4, 2), clamped_uniform_knots(4, 2)};
-  validate_lattice(L);
+  const Lattice L = make_lattice(Vector3d(-1.5, -1.5, -1.5), Vector3d(5.5, 1.5, 1.5), {8, 4, 4}, {3, 2, 2},
+                                 {Seam::Shift, Seam::None, Seam::None});
   const RowMatrixX3d P = restrict_points(make_ties(L), squashed(L, 0.7));
   Deformer D(two.V, two.F, L, OutsidePolicy::Error, 2, &parts);
   for (int step = 1; step <= 4; ++step) {

@@ -685,12 +685,8 @@ TEST_P(VulkanP, PeriodicLatticesMatchCpu) {
   const RowMatrixX3d V = (0.3 * m.V).rowwise() + Eigen::RowVector3d(1.85, 0.0, 0.0);
   for (Seam seam : {Seam::Shift, Seam::Closed, Seam::Twist}) {
     SCOPED_TRACE(int(seam));
-    Lattice L;
-    L.box_min = Vector3d(-1.0, -0.5, -0.4);
-    L.box_max = Vector3d(2.0, 0.5, 0.4);
-    L.seam = {seam, Seam::None, Seam::None};
-    const std::array<int, 3> n = {7, 5, 4};
-    for (int a = 0; a < 3; ++a) L.knots[a] = a == 0 ? periodic_uniform_knots(n[a], 3) : clamped_uniform_knots(n[a], 3);
+    const Lattice L = make_lattice(Vector3d(-1.0, -0.5, -0.4), Vector3d(2.0, 0.5, 0.4), {7, 5, 4}, {3, 3, 3},
+                                   {seam, Seam::None, Seam::None});
     Deformer cpu(V, m.F, L);
     auto gpu = make(V, m.F, L);
     // A smooth edit of the distinct rest points.

@@ -7,6 +7,24 @@
 
 #include "vpffd/ffd/vertex_basis.h"
 
+namespace vpffd {
+
+/// Control points (N x 3) as the kernels take them: three coordinate arrays
+/// (structure of arrays), a copy.
+struct PointColumns {
+  explicit PointColumns(const Eigen::Ref<const RowMatrixX3d>& P) : x(P.col(0)), y(P.col(1)), z(P.col(2)) {
+    c[0] = x.data();
+    c[1] = y.data();
+    c[2] = z.data();
+  }
+  PointColumns(const PointColumns&) = delete;  // c points into this object's arrays
+  PointColumns& operator=(const PointColumns&) = delete;
+  Eigen::VectorXd x, y, z;
+  const double* c[3];  ///< x, y, z data
+};
+
+}  // namespace vpffd
+
 namespace vpffd::detail {
 
 // Loop structure shared by the kernels: for each (i, j) the K_w control points

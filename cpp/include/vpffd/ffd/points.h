@@ -25,11 +25,11 @@ inline RowMatrixX3d ffd_points(const Lattice& L, const Eigen::Ref<const RowMatri
   VPFFD_CHECK(P.allFinite(), "ffd_points: control points contain NaN or Inf");
   const BasisTables T = basis_tables(L);
   const Embedding E = embed(L, X, policy, threads, "point");
-  const Eigen::VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
+  const PointColumns Q(P);
   RowMatrixX3d out(X.rows(), 3);
   parallel_range(X.rows(), threads, [&](Index b, Index e) {
     detail::dispatch_order(T, [&](auto K) {
-      detail::ffd_kernel<decltype(K)::value>(T, E, Px.data(), Py.data(), Pz.data(), out.data(), b, e);
+      detail::ffd_kernel<decltype(K)::value>(T, E, Q.x.data(), Q.y.data(), Q.z.data(), out.data(), b, e);
     });
   });
   const RowMatrixX3d shift = seam_translations(L, X);  // periodic "shift" seams: D(x + kL) = D(x) + kL

@@ -180,12 +180,11 @@ class Deformer {
   /// Jacobians dD/dx at the vertices: #V x 9, row-major 3x3 per vertex.
   RowMatrixXd jacobians(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "jacobians");
-    const RowMatrixX3d Pe = expand_points(ties_, P);
-    const Eigen::VectorXd Px = Pe.col(0), Py = Pe.col(1), Pz = Pe.col(2);
+    const PointColumns Q(expand_points(ties_, P));
     RowMatrixXd Js(n_vertices(), 9), J(n_vertices(), 9);
     const Vector3d s = parameter_scale(lattice_);
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
-      detail::jacobian_kernel(tables_, embedding_, Px.data(), Py.data(), Pz.data(), s, Js.data(), b, e);
+      detail::jacobian_kernel(tables_, embedding_, Q.x.data(), Q.y.data(), Q.z.data(), s, Js.data(), b, e);
       for (Index i = b; i < e; ++i) J.row(order_[i]) = Js.row(i);
     });
     unmirror_jacobians(lattice_, V_, J);
@@ -198,8 +197,7 @@ class Deformer {
   /// small buffer. (A twist seam's mirroring flips two columns: det is unchanged.)
   VectorXd jacobian_determinants(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "jacobian_determinants");
-    const RowMatrixX3d Pe = expand_points(ties_, P);
-    const Eigen::VectorXd Px = Pe.col(0), Py = Pe.col(1), Pz = Pe.col(2);
+    const PointColumns Q(expand_points(ties_, P));
     const Vector3d s = parameter_scale(lattice_);
     VectorXd det(n_vertices());
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
@@ -207,7 +205,7 @@ class Deformer {
       std::vector<double> J(9 * kBlock);
       for (Index c = b; c < e; c += kBlock) {
         const Index ce = std::min(e, c + kBlock);
-        detail::jacobian_kernel(tables_, embedding_, Px.data(), Py.data(), Pz.data(), s, J.data(), c, ce, c);
+        detail::jacobian_kernel(tables_, embedding_, Q.x.data(), Q.y.data(), Q.z.data(), s, J.data(), c, ce, c);
         for (Index i = c; i < ce; ++i) {
           const double* j = J.data() + 9 * (i - c);
           det[order_[i]] = j[0] * (j[4] * j[8] - j[5] * j[7]) - j[1] * (j[3] * j[8] - j[5] * j[6]) +
@@ -437,15 +435,14 @@ class Deformer {
   /// rows[i] when rows is given (order_: the caller's order, without a reordering pass).
   void eval_ffd(const Eigen::Ref<const RowMatrixX3d>& P, double* out, int threads,
                 const std::int32_t* rows = nullptr) const {
-    const RowMatrixX3d Pe = expand_points(ties_, P);
-    const Eigen::VectorXd Px = Pe.col(0), Py = Pe.col(1), Pz = Pe.col(2);
+    const PointColumns Q(expand_points(ties_, P));
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
         constexpr int k = decltype(K)::value;
         if constexpr (k > 0)
-          detail::ffd_runs<k>(tables_, embedding_, runs_, Px.data(), Py.data(), Pz.data(), out, b, e, rows);
+          detail::ffd_runs<k>(tables_, embedding_, runs_, Q.x.data(), Q.y.data(), Q.z.data(), out, b, e, rows);
         else
-          detail::ffd_kernel<k>(tables_, embedding_, Px.data(), Py.data(), Pz.data(), out, b, e, rows);
+          detail::ffd_kernel<k>(tables_, embedding_, Q.x.data(), Q.y.data(), Q.z.data(), out, b, e, rows);
       });
       if (seam_shift_.rows() > 0)
         for (Index i = b; i < e; ++i)

@@ -100,19 +100,23 @@ inline void validate_lattice(const Lattice& L) {
 }
 
 /// A lattice over the box [box_min, box_max] with `dims` control points per axis,
-/// the given degrees and open-uniform knots on [0, 1].
+/// the given degrees and uniform knots on [0, 1]: open-uniform (clamped) along an
+/// axis whose `seam` is None, periodic (periodic.h) along the others, where `dims`
+/// counts the distinct control points (as Python's Lattice(shape=..., periodic=...)).
 inline Lattice make_lattice(const Vector3d& box_min, const Vector3d& box_max, std::array<int, 3> dims,
-                            std::array<int, 3> degree) {
+                            std::array<int, 3> degree, std::array<Seam, 3> seam = {Seam::None, Seam::None, Seam::None}) {
   Lattice L;
   L.degree = degree;
   L.box_min = box_min;
   L.box_max = box_max;
+  L.seam = seam;
   for (int a = 0; a < 3; ++a) {
     VPFFD_CHECK(degree[a] >= 1 && degree[a] <= kMaxDegree, "lattice: degree ", degree[a], " not in [1, ",
                 kMaxDegree, "]");
     VPFFD_CHECK(dims[a] >= degree[a] + 1, "lattice: shape ", dims[a], " along axis ", a,
                 " is too small for degree ", degree[a], " (need at least ", degree[a] + 1, ")");
-    L.knots[a] = clamped_uniform_knots(dims[a], degree[a]);
+    L.knots[a] = seam[a] == Seam::None ? clamped_uniform_knots(dims[a], degree[a])
+                                       : periodic_uniform_knots(dims[a], degree[a]);
   }
   validate_lattice(L);
   return L;

@@ -177,8 +177,8 @@ class MultiresFFD {
   MultiresFrame deform(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     if (!uses_cell_runs()) return deform_per_point(P, threads);
     check_control_points(P);
-    const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
-    const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
+    const PointColumns Q(P);
+    const double* const* Pc = Q.c;
     const Index n = m_->n_vertices();
     MultiresFrame out;
     out.vertices.resize(n, 3);
@@ -197,8 +197,8 @@ class MultiresFFD {
   /// foot point): the reference of deform().
   MultiresFrame deform_per_point(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P);
-    const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
-    const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
+    const PointColumns Q(P);
+    const double* const* Pc = Q.c;
     return detail::dispatch_order(tables_, [&](auto K) {
       return reconstruct(
           *m_,
@@ -227,8 +227,8 @@ class MultiresFFD {
   void fill_values_jacobians(const Eigen::Ref<const RowMatrixX3d>& P, RowMatrixX3d& values, RowMatrixXd& J,
                              int threads, Eval&& eval) const {
     check_control_points(P);
-    const VectorXd Px = P.col(0), Py = P.col(1), Pz = P.col(2);
-    const double* Pc[3] = {Px.data(), Py.data(), Pz.data()};
+    const PointColumns Q(P);
+    const double* const* Pc = Q.c;
     const Index n = m_->n_vertices();
     values.resize(n, 3);
     J.resize(n, 9);
