@@ -256,24 +256,9 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
   rb_X = Buffer(*dev, 12 * nv, Buffer::Readback, "multiresolution vertices (read-back)");
   rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "multiresolution normals (read-back)");
 
-  VkCommandPoolCreateInfo cpi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-  cpi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;  // tail_cb
-  cpi.queueFamilyIndex = dev->family;
-  VkCommandPool cmd_pool_h = VK_NULL_HANDLE;
-  detail::check(vkCreateCommandPool(d, &cpi, nullptr, &cmd_pool_h), "vkCreateCommandPool");
-  cmd_pool.adopt(d, cmd_pool_h, vkDestroyCommandPool);
-  VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-  VkFence fence_h = VK_NULL_HANDLE;
-  detail::check(vkCreateFence(d, &fi, nullptr, &fence_h), "vkCreateFence");
-  fence.adopt(d, fence_h, vkDestroyFence);
-  if (dev->timestamps) {
-    VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
-    qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-    qi.queryCount = 2;
-    VkQueryPool queries_h = VK_NULL_HANDLE;
-    detail::check(vkCreateQueryPool(d, &qi, nullptr, &queries_h), "vkCreateQueryPool");
-    queries.adopt(d, queries_h, vkDestroyQueryPool);
-  }
+  cmd_pool = detail::create_command_pool(*dev);  // resettable buffers: tail_cb
+  fence = detail::create_fence(d);
+  queries = detail::create_timestamp_queries(*dev, 2);
 
   // One-time upload through staging buffers, one submission.
   {

@@ -87,6 +87,38 @@ namespace {
 constexpr std::uint64_t kWaitNs = 600ull * 1000 * 1000 * 1000;
 }
 
+Owned<VkCommandPool> create_command_pool(const Device& dev) {
+  VkCommandPoolCreateInfo cpi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  cpi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  cpi.queueFamilyIndex = dev.family;
+  VkCommandPool h = VK_NULL_HANDLE;
+  check(vkCreateCommandPool(dev.handle, &cpi, nullptr, &h), "vkCreateCommandPool");
+  Owned<VkCommandPool> pool;
+  pool.adopt(dev.handle, h, vkDestroyCommandPool);
+  return pool;
+}
+
+Owned<VkFence> create_fence(VkDevice d) {
+  VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  VkFence h = VK_NULL_HANDLE;
+  check(vkCreateFence(d, &fi, nullptr, &h), "vkCreateFence");
+  Owned<VkFence> fence;
+  fence.adopt(d, h, vkDestroyFence);
+  return fence;
+}
+
+Owned<VkQueryPool> create_timestamp_queries(const Device& dev, std::uint32_t n_queries) {
+  Owned<VkQueryPool> queries;
+  if (!dev.timestamps) return queries;
+  VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+  qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  qi.queryCount = n_queries;
+  VkQueryPool h = VK_NULL_HANDLE;
+  check(vkCreateQueryPool(dev.handle, &qi, nullptr, &h), "vkCreateQueryPool");
+  queries.adopt(dev.handle, h, vkDestroyQueryPool);
+  return queries;
+}
+
 void settle(VkDevice d, VkFence fence, bool& pending) {
   if (!pending) return;
   const VkResult r = vkWaitForFences(d, 1, &fence, VK_TRUE, kWaitNs);

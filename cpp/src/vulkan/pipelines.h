@@ -30,6 +30,13 @@ void create_compute_pipelines(VkDevice d, const Buffer* buffers, std::uint32_t n
                               const std::int32_t* spec, std::uint32_t n_spec, const Spv* shaders,
                               std::uint32_t n_shaders, ComputePipelines& out);
 
+/// The objects every submitting class owns: a command pool on the device's queue family
+/// whose buffers can be reset one by one, a fence, and a pool of `n_queries` timestamp
+/// queries (empty when the device has no timestamps).
+Owned<VkCommandPool> create_command_pool(const Device& dev);
+Owned<VkFence> create_fence(VkDevice d);
+Owned<VkQueryPool> create_timestamp_queries(const Device& dev, std::uint32_t n_queries);
+
 /// Waits for a submission whose earlier wait failed (`pending`), so that its command
 /// buffers and `fence` may be reused. @throws DeviceError after 600 s.
 void settle(VkDevice d, VkFence fence, bool& pending);

@@ -185,25 +185,10 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   rb_stats = B(*dev, 8 * ST_SIZE, B::Readback, "frame results (read-back)");
   rb_red = B(*dev, 16 * kMaxGroups, B::Readback, "volume partials (read-back)");
 
-  VkCommandPoolCreateInfo cpi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-  cpi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-  cpi.queueFamilyIndex = dev->family;
-  VkCommandPool cmd_pool_h = VK_NULL_HANDLE;
-  detail::check(vkCreateCommandPool(d, &cpi, nullptr, &cmd_pool_h), "vkCreateCommandPool");
-  cmd_pool.adopt(d, cmd_pool_h, vkDestroyCommandPool);
+  cmd_pool = detail::create_command_pool(*dev);
   cmd = detail::allocate_command_buffer(d, cmd_pool.get());
-  VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-  VkFence fence_h = VK_NULL_HANDLE;
-  detail::check(vkCreateFence(d, &fi, nullptr, &fence_h), "vkCreateFence");
-  fence.adopt(d, fence_h, vkDestroyFence);
-  if (dev->timestamps) {
-    VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
-    qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-    qi.queryCount = kQueries;
-    VkQueryPool queries_h = VK_NULL_HANDLE;
-    detail::check(vkCreateQueryPool(d, &qi, nullptr, &queries_h), "vkCreateQueryPool");
-    queries.adopt(d, queries_h, vkDestroyQueryPool);
-  }
+  fence = detail::create_fence(d);
+  queries = detail::create_timestamp_queries(*dev, kQueries);
 
   // One-time upload through temporary staging buffers, one submission.
   std::vector<B> staging;
