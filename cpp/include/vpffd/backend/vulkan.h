@@ -118,9 +118,12 @@ class VulkanDeformer {
   /// @throws InvalidInputError for bad input (as the CPU Deformer),
   ///         BackendUnavailableError when no Vulkan or no suitable device is found,
   ///         DeviceError when a Vulkan call fails (the message names the call)
+  /// @param[in] parts  null, or the mesh's parts (mesh/parts.h), as for Deformer: each
+  ///                    part then keeps its own volume (one volume row per part in every
+  ///                    device axis step), at most MAX_DEVICE_PARTS (64) of them
   VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F, Lattice L,
                  OutsidePolicy policy = OutsidePolicy::Error, const std::string& device = "",
-                 Precision precision = Precision::Auto);
+                 Precision precision = Precision::Auto, const MeshParts* parts = nullptr);
   ~VulkanDeformer();
   VulkanDeformer(const VulkanDeformer&) = delete;
   VulkanDeformer& operator=(const VulkanDeformer&) = delete;
@@ -172,6 +175,10 @@ class VulkanDeformer {
   /// Enclosed volume of the current rest mesh, as Deformer::rest_volume.
   /// @throws InvalidInputError for an open mesh, unless `allow_open`
   double rest_volume(bool allow_open = false) const;
+
+  /// Enclosed volume of each part of the current rest mesh (K; the whole mesh's
+  /// without parts), as Deformer::rest_part_volumes of a Deformer built on it.
+  VectorXd rest_part_volumes() const;
 
   /// The CPU Deformer of the current rest mesh: edges, embedding, jacobians,
   /// matrices... After set_rest_vertices it is re-embedded on the host on the first
