@@ -26,10 +26,12 @@ pytestmark = pytest.mark.skipif(DEVICE is None, reason="no Vulkan backend in thi
 
 
 def spheres(count, subdivisions=2, gap=3.0):
-    """`count` unit spheres `gap` apart along x as one mesh, and their labels (0, 10, 20...)."""
+    """`count` spheres `gap` apart along x, of radii 1, 0.85, 0.7... (parts that miss
+    different volumes under one edit), as one mesh, and their labels (0, 10, 20...)."""
     s = shapes.icosphere(subdivisions)
     nv = s.n_vertices
-    V = np.concatenate([s.vertices + [gap * i, 0, 0] for i in range(count)])
+    radius = [max(1.0 - 0.15 * i, 0.5) for i in range(count)]
+    V = np.concatenate([radius[i] * s.vertices + [gap * i, 0, 0] for i in range(count)])
     F = np.concatenate([s.faces + i * nv for i in range(count)])
     return vpffd.Mesh(V, F), np.repeat(10 * np.arange(count), nv)
 
@@ -67,11 +69,12 @@ def test_every_part_keeps_its_volume_like_the_cpu(precision, count):
     _rest_sums_agree(rest, c.rest_part_volumes, mesh, labels, lat.center)
     assert g.rest_volume == rest.sum()
     P = edits.squash(edits.twist(lat.control_points, np.pi, axis="z"), 0.7, axis="z")
+    P[:3, ..., 1] *= 0.8  # the first part is squashed more
     rg, rc = g.deform(P), c.deform(P)
     b = check_frame(rg, rc, mesh, lat, cpu=c)
     _check_parts(rg, rc, b, rest)
     # The plain FFD changed every part far beyond the bound (the test is not vacuous).
-    assert np.abs(rg.part_volumes_before - rest).min() > 1e3 * b.corrected_volume
+    assert np.abs(rg.part_volumes_before - rest).min() > 100 * b.corrected_volume
 
 
 def test_axis_subsets_targets_and_fixed_points(precision):
