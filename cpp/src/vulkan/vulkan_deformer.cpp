@@ -24,6 +24,12 @@
 // at all, so the host solves them (exactly as the CPU backend, errors included) and
 // the device only applies the offsets.
 //
+// Parts (several closed objects, each keeping its own volume): the frame is the same
+// with K coefficient rows and K volumes per step (solve.comp's solve_parts), per-part
+// volume passes (volume.comp) before and after the steps, and each part's target in
+// the frame parameters; the device's failure statuses are answered by the CPU backend's
+// message (it names the parts), which runs the frame again on the host (errors only).
+//
 // Periodic lattices (setup.cpp): P is expanded to the extended lattice on the host, the
 // device solves for the distinct control points; offsets, steps and results are the
 // distinct points', as on the CPU.

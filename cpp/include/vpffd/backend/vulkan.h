@@ -16,7 +16,13 @@
 /// takes (up to the number of free control points); with a volume correction their
 /// block C = R W^-1 R^T is factored on the host once per constraint set (O(nc^3))
 /// and each device step costs O(nc^2); without one they do not depend on the mesh
-/// and are solved on the host exactly as the CPU backend solves them.
+/// and are solved on the host exactly as the CPU backend solves them. Parts (at most
+/// 64): each part's vertices are sorted into their own tiles (the sort key is part,
+/// then cell), each step sums one coefficient row and one volume per part, and the
+/// device eliminates the constraints from the K volume rows (a K x K Schur complement,
+/// factored LDL^T in the step's solve workgroup): the CPU's solve_axis_offsets_parts
+/// in one submission, each part's share of what it misses per step as on the CPU. A
+/// row the device finds zero or dependent is named by the CPU backend's own message.
 ///
 /// Precision: positions, control points and basis values are float32 on the device
 /// (positions relative to origin()); weights, coefficients, volumes and offsets are
