@@ -684,7 +684,7 @@ TEST_P(VulkanP, PartsKeepTheirOwnVolumes) {
   V.bottomRows(nv).col(0).array() += 2.5;
   F.topRows(nf) = m.F;
   F.bottomRows(nf) = m.F.array() + static_cast<int>(nv);
-  const Lattice L = lattice_around(V, {8, 5, 5}, 3);
+  const Lattice L = test::lattice_around(V, {8, 5, 5}, 3);
   const MeshParts parts = parts_from_components(F, V.rows());
   ASSERT_EQ(parts.count, 2);
   Deformer cpu(V, F, L, OutsidePolicy::Error, 0, &parts);

@@ -19,7 +19,7 @@ import pytest
 import vpffd
 from vpffd import edits, shapes
 from gpu_bounds import check_frame
-from test_vulkan import DEVICE, gpu_deformer
+from test_vulkan import DEVICE, SEL, gpu_deformer
 from test_vulkan import precision  # noqa: F401 (the fixture: both precisions, float64 where the device has it)
 
 pytestmark = pytest.mark.skipif(DEVICE is None, reason="no Vulkan backend in this build or no suitable device")
@@ -168,5 +168,10 @@ def test_bad_parts_on_vulkan(precision):
     with pytest.raises(vpffd.InvalidInputError, match=r"part 1 \(label 10\) is open \(3 boundary edges\)"):
         gpu_deformer(open_mesh, lat, precision, parts=labels)
     many, many_labels = spheres(65, subdivisions=0, gap=2.5)
-    with pytest.raises(vpffd.InvalidInputError, match="65 parts; the Vulkan backend keeps at most 64"):
-        gpu_deformer(many, vpffd.Lattice.around(many, shape=(6, 4, 4)), precision, parts=many_labels)
+    many_lat = vpffd.Lattice.around(many, shape=(6, 4, 4))
+    with pytest.raises(vpffd.BackendUnavailableError, match="65 parts; the Vulkan backend keeps at most 64"):
+        gpu_deformer(many, many_lat, precision, parts=many_labels)
+    # "auto" with a device asked for falls back to the CPU, saying why.
+    with pytest.warns(UserWarning, match="at most 64 parts"):
+        d = vpffd.Deformer(many, many_lat, backend="auto", device=SEL, parts=many_labels)
+    assert d.backend in ("openmp", "serial") and d.n_parts == 65

@@ -62,8 +62,9 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   const auto dims = L.dims();
   KKK = T.order[0] * T.order[1] * T.order[2];
   K = c.n_parts();
+  // Not bad input, a limit of this backend: "auto" then falls back to the CPU.
   if (K > MAX_DEVICE_PARTS)
-    throw InvalidInputError(vpffd::detail::concat("VulkanDeformer: ", K, " parts; the Vulkan backend keeps at most ",
+    throw BackendUnavailableError(vpffd::detail::concat("VulkanDeformer: ", K, " parts; the Vulkan backend keeps at most ",
                                                   MAX_DEVICE_PARTS, " parts (its solve factors the K x K system in "
                                                   "one workgroup); use a CPU backend"));
   // The sort keys part * NE + cell, and the K x N coefficient rows, in 32-bit indices.
