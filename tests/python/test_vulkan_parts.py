@@ -11,7 +11,8 @@ vertices of |g_v,a| E_v,a, which the whole-mesh bound Bounds.corrected_volume (t
 sum over all vertices, plus the sums' rounding over all faces) covers. The vertices, the
 step records and the plain volumes are compared with the CPU frame with the same parts
 by check_frame; the steps' share is the sum of the parts' shares, each of which differs
-from the CPU's by at most its part's plain-volume error, whose sum is the whole mesh's.
+from the CPU's by at most its part's plain-volume error, whose sum is the whole mesh's;
+check_frame's offset test takes the smallest part's share (gpu_bounds.Bounds).
 """
 import numpy as np
 import pytest
@@ -75,6 +76,9 @@ def test_every_part_keeps_its_volume_like_the_cpu(precision, count):
     _check_parts(rg, rc, b, rest)
     # The plain FFD changed every part far beyond the bound (the test is not vacuous).
     assert np.abs(rg.part_volumes_before - rest).min() > 100 * b.corrected_volume
+    # Every sum in a fixed order: a rerun is bit-identical.
+    again = g.deform(P)
+    assert np.array_equal(again.vertices, rg.vertices) and np.array_equal(again.part_volumes, rg.part_volumes)
 
 
 def test_axis_subsets_targets_and_fixed_points(precision):
