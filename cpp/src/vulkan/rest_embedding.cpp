@@ -42,6 +42,10 @@
 //   that position (the plan embeds those few points on the host). The default volume
 //   target is rest_vol, at construction too (the same code, so moving back to the
 //   construction's positions gives its frames bit for bit).
+// - Parts: embed.comp puts each slot's part above its cell in the sort key, so the sort
+//   groups each part's slots (as the CPU's part_start) and tiles never straddle parts;
+//   the rest part volumes are summed on the host (part_volumes over the faces grouped
+//   by part, the CPU's own function and face order), their sum is rest_vol.
 // - The CPU Deformer `cpu` (edges, ffd, jacobians, matrices, error messages) follows a
 //   move lazily: frames do not need it, and synced_cpu() re-embeds it on the host on
 //   its first use after a move.

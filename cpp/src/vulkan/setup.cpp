@@ -12,6 +12,10 @@
 // coefficients: each distinct point sums the tiles of all its copies, in a fixed
 // order). The seams are a specialisation constant; embed.comp wraps the rest positions
 // into the box and keeps per slot what the wrap did (bSeam).
+//
+// Parts (deformer_impl.h): the processing faces are grouped by part; bParts holds the
+// K + 1 face offsets and each slot's part; the cell sort's keys and tables grow to
+// K x NE keys, the tiles' bound to V / 64 + min(V, K cells), alpha to K rows of N.
 
 #include <array>
 
