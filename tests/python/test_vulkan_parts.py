@@ -179,3 +179,20 @@ def test_bad_parts_on_vulkan(precision):
     with pytest.warns(UserWarning, match="at most 64 parts"):
         d = vpffd.Deformer(many, many_lat, backend="auto", device=SEL, parts=many_labels)
     assert d.backend in ("openmp", "serial") and d.n_parts == 65
+
+
+def test_parts_on_a_periodic_lattice(precision):
+    # The fold of the periodic ties (combine.comp) applies to every part's row; the second
+    # sphere straddles the seam (its rest positions are wrapped on the device).
+    mesh, labels = spheres(2)
+    V = mesh.vertices.copy()
+    V[labels == 10, 0] += 1.4  # centre at x = 4.4 in a box that ends at 4.5
+    mesh = vpffd.Mesh(V, mesh.faces)
+    lat = vpffd.Lattice([-1.5, -1.5, -1.5], [4.5, 1.5, 1.5], shape=(8, 5, 5), degree=3, periodic="x")
+    g = gpu_deformer(mesh, lat, precision, parts=labels)
+    c = vpffd.Deformer(mesh, lat, parts=labels, backend="serial")
+    P = edits.squash(lat.control_points, 0.7, axis="z")
+    P[:3, ..., 1] *= 0.8
+    rg, rc = g.deform(P), c.deform(P)
+    b = check_frame(rg, rc, mesh, lat, cpu=c)
+    _check_parts(rg, rc, b, g.rest_part_volumes)
