@@ -20,7 +20,7 @@ Scenes (meshes generated in code, the paper's counts):
 Per scene and backend: the median over ``--frames`` frames of moving the rest mesh
 (``set_rest_vertices``; on Vulkan its device work runs in the next frame's
 submission, so it is counted in the frame), of the frame (``deform``, plain and with every object's
-volume kept, ``parts="components"``; on Vulkan the whole scene's volume), the fps of both together,
+volume kept, ``parts="components"``), the fps of both together,
 and the move's cost as a fraction of each frame. The paper's
 figures (7.5, 8.4 and 5.5 fps) come from its own GPU (a GeForce 6800, 2006):
 they are not printed beside ours, which come from another machine. On lavapipe (Vulkan on the CPU) the Vulkan
@@ -82,13 +82,12 @@ SCENES = {"whales": whales, "ants": ants, "car": car, "car-open": car_open, "sph
 
 
 def measure(mesh, lat, P, path, backend, threads, frames, preserve):
-    # Every object keeps its own volume on the CPU; the Vulkan backend keeps the
-    # volume of the whole scene (parts are a CPU feature).
+    # Every object keeps its own volume, on every backend.
     kw = dict(backend=backend)
     if backend != "vulkan":
         kw["threads"] = threads
-        if preserve:
-            kw["parts"] = "components"
+    if preserve:
+        kw["parts"] = "components"
     d = vpffd.Deformer(mesh, lat, **kw)
     times = np.linspace(0.0, 4.0, frames + 1)
     Xs = [path.positions(mesh.vertices, t) for t in times]

@@ -90,7 +90,7 @@ class Deformer:
         closed), or "components" for the connected components of the faces.
         ``deform(preserve_volume=True)`` then restores every part's volume (one
         volume row per part in each axis step's solve); results carry
-        ``part_volumes``. Parts run on the CPU backends only ("auto" picks the CPU).
+        ``part_volumes``. On "vulkan" at most 64 parts.
 
     Attributes
     ----------
@@ -109,17 +109,12 @@ class Deformer:
         labels = _part_labels(parts, self.mesh.n_vertices)
         _check_memory(lattice.n_control_points, "Deformer", _FRAME_BYTES_PER_CONTROL_POINT,
                       _BYTES_PER_VERTEX * self.mesh.n_vertices)
-        if labels is not None and backend == "auto" and device is None:
-            backend = "openmp" if _core.has_openmp() and (os.cpu_count() or 1) > 1 else "serial"
         self.backend, self._threads, selector = _resolve_backend(backend, threads, device, self.mesh.n_vertices)
-        if labels is not None and self.backend == "vulkan":
-            raise BackendUnavailableError("Deformer: parts are computed on the CPU backends only; use backend "
-                                          "'openmp' or 'serial' (or 'auto' without a device)")
         self._vk = None
         if self.backend == "vulkan":
             try:
                 self._vk = _core.VulkanDeformer(self.mesh.vertices, self.mesh.faces, lattice._spec, outside, selector,
-                                                precision)
+                                                precision, labels)
             except (BackendUnavailableError, _core.DeviceError) as e:
                 if backend != "auto":
                     raise
@@ -175,7 +170,9 @@ class Deformer:
     @property
     def rest_part_volumes(self):
         """(K,) float64 the volume of each part of the rest mesh; None without parts."""
-        return self._core.rest_part_volumes() if self._core.has_parts else None
+        if not self._core.has_parts:
+            return None
+        return self._vk.rest_part_volumes() if self._vk is not None else self._core.rest_part_volumes()
 
     def set_rest_vertices(self, vertices) -> None:
         """Moves the rest mesh: the next frame deforms ``vertices`` (V, 3) (same faces)

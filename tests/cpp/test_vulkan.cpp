@@ -669,6 +669,48 @@ TEST_P(VulkanP, MultiresAfterDeformerFrame) {
   EXPECT_TRUE(gpu.deform(base, P, plain).frame.vertices == g0.vertices);
 }
 
+// Parts on the device: two spheres of different sizes in one lattice, each keeping its
+// own volume under an edit that changes them unevenly. Each part's volume error is
+// bounded by the whole mesh's corrected-volume bound (a sum over the part's vertices
+// of the same non-negative terms: tests/python/test_vulkan_parts.py), the vertices by
+// the vertex bound against the CPU frame with the same parts.
+TEST_P(VulkanP, PartsKeepTheirOwnVolumes) {
+  const TriMesh m = icosphere(2);
+  const Index nv = m.V.rows(), nf = m.F.rows();
+  RowMatrixX3d V(2 * nv, 3);
+  RowMatrixX3i F(2 * nf, 3);
+  V.topRows(nv) = m.V;
+  V.bottomRows(nv) = 0.7 * m.V;
+  V.bottomRows(nv).col(0).array() += 2.5;
+  F.topRows(nf) = m.F;
+  F.bottomRows(nf) = m.F.array() + static_cast<int>(nv);
+  const Lattice L = test::lattice_around(V, {8, 5, 5}, 3);
+  const MeshParts parts = parts_from_components(F, V.rows());
+  ASSERT_EQ(parts.count, 2);
+  Deformer cpu(V, F, L, OutsidePolicy::Error, 0, &parts);
+  vulkan::VulkanDeformer gpu(V, F, L, OutsidePolicy::Error, "", GetParam(), &parts);
+  EXPECT_EQ(gpu.rest_part_volumes().size(), 2);
+  RowMatrixX3d P = edit(L);
+  for (Index c = 0; c < P.rows(); ++c)
+    if (rest_control_points(L)(c, 0) < L.box_min[0] + 0.3 * (L.box_max[0] - L.box_min[0])) P(c, 1) *= 0.8;
+  for (const char* axes : {"xyz", "zx"}) {
+    SCOPED_TRACE(axes);
+    CorrectionOptions o;
+    o.axes = parse_axes(axes);
+    const DeformResult c = cpu.deform(P, o), g = gpu.deform(P, o);
+    expect_close(g, c, F, L, P);
+    const Bounds b = bounds(c, F, L, P);
+    ASSERT_EQ(g.part_volumes.size(), 2);
+    ASSERT_EQ(g.part_targets.size(), 2);
+    for (int k = 0; k < 2; ++k) {
+      EXPECT_EQ(g.part_targets[k], gpu.rest_part_volumes()[k]);
+      EXPECT_LE(std::abs(g.part_volumes[k] - g.part_targets[k]), b.corrected_volume);
+      // The edit did change the part (the check above is not vacuous).
+      EXPECT_GT(std::abs(g.part_volumes_before[k] - g.part_targets[k]), 100 * b.corrected_volume);
+    }
+  }
+}
+
 TEST(Vulkan, MultiresRefusesPeriodicLattice) {
   Scene s = sphere(2, 3, {6, 6, 6});
   auto mr = std::make_shared<Multires>(decompose(s.V, s.F, 3.0));

@@ -118,6 +118,16 @@ class Bounds:
         # (plus constraint rows): to first order their relative change is the share's
         # plus twice the coefficients' (alpha = B^T w, w products of two coordinates).
         shares = [abs(s["share"]) for s in c.steps if abs(s["share"]) > 0]
+        # With parts a step's share is the sum of the parts' shares, and each part's own
+        # share sets its rows' multiplier: the smallest one counts. The volume is linear
+        # in each axis's coordinates, so every step meets its shares, and part k's share
+        # is the same in every step: (target_k - volume_before_k) / steps. Each part's
+        # measured volume errs by at most its own vertices' and faces' terms of
+        # plain_volume, whose sum (the whole mesh's) bounds the summed share's error.
+        targets = getattr(c, "part_target_volumes", None)
+        if targets is not None and len(targets) > 1 and c.steps:
+            missing = np.abs(np.asarray(targets) - np.asarray(c.part_volumes_before)) / len(c.steps)
+            shares += [float(s) for s in missing if s > 0]
         self.share = self.plain_volume
         self.offset_rel = (self.plain_volume / min(shares) if shares else 0.0) + 4 * self.vertex / np.abs(Y).max()
 

@@ -147,15 +147,7 @@ def test_bad_parts():
     assert np.array_equal(labels, before)
 
 
-def test_parts_refused_on_vulkan():
-    mesh, labels = spheres(2)
-    lat = vpffd.Lattice.around(mesh, shape=(8, 5, 5))
-    with pytest.raises(vpffd.BackendUnavailableError) as e:
-        vpffd.Deformer(mesh, lat, parts=labels, backend="vulkan")
-    if vpffd._core.has_vulkan:
-        assert "CPU backends only" in str(e.value)
-    # "auto" takes the CPU when parts are asked for.
-    assert vpffd.Deformer(mesh, lat, parts=labels).backend in ("openmp", "serial")
+# Parts on backend "vulkan": tests/python/test_vulkan_parts.py.
 
 
 # --- moving rest positions -----------------------------------------------------------

@@ -11,19 +11,6 @@ namespace vpffd::bindings {
 
 namespace {
 
-/// None, "components" or one integer label per vertex (the Python layer has checked
-/// the array's kind and shape) as MeshParts; nullopt for None.
-std::optional<MeshParts> parse_parts(const py::object& parts, RefF F, Index n_vertices) {
-  if (parts.is_none()) return std::nullopt;
-  if (py::isinstance<py::str>(parts)) {
-    const std::string s = parts.cast<std::string>();
-    VPFFD_CHECK(s == "components", "parts: expected 'components' or one integer label per vertex, got '", s, "'");
-    return parts_from_components(F, n_vertices);
-  }
-  const auto labels = parts.cast<std::vector<std::int64_t>>();
-  return parts_from_labels(F, labels, n_vertices);
-}
-
 /// The paper's face matrix with its columns in the mesh's own face order (Python's
 /// face_matrix: column j is face j of the caller's faces).
 CsrMatrix face_matrix_in_face_order(const Deformer& d, int threads) {

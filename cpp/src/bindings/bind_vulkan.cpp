@@ -58,14 +58,17 @@ void bind_vulkan(py::module_& m) {
 
   py::class_<VulkanDeformer, std::unique_ptr<VulkanDeformer>>(m, "VulkanDeformer")
       .def(py::init([](RefV V, RefF F, const Lattice& L, const std::string& outside, const std::string& device,
-                       const std::string& precision) {
+                       const std::string& precision, const py::object& parts) {
              const OutsidePolicy pol = parse_outside_policy(outside);
              const vulkan::Precision prec = vulkan::parse_precision(precision);
+             const std::optional<MeshParts> mp = parse_parts(parts, F, V.rows());
              py::gil_scoped_release release;
-             return std::make_unique<VulkanDeformer>(V, F, L, pol, device, prec);
+             return std::make_unique<VulkanDeformer>(V, F, L, pol, device, prec, mp ? &*mp : nullptr);
            }),
            py::arg("vertices"), py::arg("faces"), py::arg("lattice"), py::arg("outside") = "error",
-           py::arg("device") = "", py::arg("precision") = "auto")
+           py::arg("device") = "", py::arg("precision") = "auto", py::arg("parts") = py::none())
+      .def("rest_part_volumes", &VulkanDeformer::rest_part_volumes,
+           "(K,) each part's volume of the current rest mesh (the whole mesh's without parts).")
       .def_property_readonly(
           "cpu", [](const VulkanDeformer& d) -> const Deformer& { return d.cpu(); },
           py::return_value_policy::reference_internal,

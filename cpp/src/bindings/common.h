@@ -13,6 +13,7 @@
 #include <pybind11/stl.h>
 
 #include "vpffd/correction/options.h"
+#include "vpffd/mesh/parts.h"
 #include "vpffd/sparse/csr.h"
 
 namespace py = pybind11;
@@ -91,5 +92,18 @@ void bind_check(py::module_& m);   // bind_check.cpp: mesh defect report, orient
 void bind_normals(py::module_& m); // bind_normals.cpp: rest and deformed normals
 void bind_folds(py::module_& m);   // bind_folds.cpp: fold-over certification
 void bind_multires(py::module_& m); // bind_multires.cpp: multiresolution decomposition, FFD and RBF
+
+/// None, "components" or one integer label per vertex (the Python layer has checked
+/// the array's kind and shape) as MeshParts; nullopt for None.
+inline std::optional<MeshParts> parse_parts(const py::object& parts, RefF F, Index n_vertices) {
+  if (parts.is_none()) return std::nullopt;
+  if (py::isinstance<py::str>(parts)) {
+    const std::string s = parts.cast<std::string>();
+    VPFFD_CHECK(s == "components", "parts: expected 'components' or one integer label per vertex, got '", s, "'");
+    return parts_from_components(F, n_vertices);
+  }
+  const auto labels = parts.cast<std::vector<std::int64_t>>();
+  return parts_from_labels(F, labels, n_vertices);
+}
 
 }  // namespace vpffd::bindings

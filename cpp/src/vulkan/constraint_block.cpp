@@ -87,7 +87,7 @@ bool VulkanDeformer::Impl::update_constraints(const std::vector<SparseVec>& rows
   const size_t cd_size = std::max<size_t>(1, value.size() + 2 * size_t(nc) * nc);
   reserve(bConsI, &up_cons_i, 4 * ci_size, "constraints");
   reserve(bConsD, &up_cons_d, 8 * cd_size, "constraints");
-  reserve(bWork, nullptr, 8 * 6 * std::max<size_t>(1, nc), "solve scratch");
+  reserve(bWork, nullptr, 8 * work_size(size_t(nc)), "solve scratch");
   std::int32_t* ci = static_cast<std::int32_t*>(up_cons_i.mapped());
   std::fill(ci, ci + CI_BASE, 0);
   ci[CI_NC] = static_cast<std::int32_t>(nc);

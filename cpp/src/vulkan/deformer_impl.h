@@ -118,7 +118,20 @@ struct VulkanDeformer::Impl {
   // the spline evaluates (the extended lattice; N without periodic axes).
   Index nv = 0, nf = 0, N = 0, NE = 0, n_tiles = 0;  // n_tiles: NTILE, an upper bound of the real tiles
   int KKK = 0;
+  // Parts (each keeping its own volume; 1 without parts or with one part): the device
+  // sorts each part's slots into one range (the sort key is part * NE + cell), combine
+  // writes one coefficient row per part, solve.comp takes one volume row per part and
+  // volume.comp sums each part's faces (grouped by part, face_start) in its own
+  // g_part workgroups. `part_faces`: the faces in that order, input numbering (the
+  // host's rest part volumes after a move, as the CPU's part_volumes of its Fp_).
+  int K = 1;
+  std::uint32_t g_part = 1;
+  std::vector<Index> face_start;
+  RowMatrixX3i part_faces;
+  VectorXd rest_part_vol;  // K, with parts: each part's rest volume (the default targets)
   std::uint32_t g_vert = 1, g_face = 1, g_cp = 1, g_tile = 1;
+  // Workgroups of a volume pass, and so its partials in `red` (per part: g_part each).
+  std::uint32_t red_groups() const { return K > 1 ? std::uint32_t(K) * g_part : g_face; }
   Vector3d origin;
   double scale = 1.0;  // device lengths = world lengths / scale (a power of two)
 
@@ -143,7 +156,8 @@ struct VulkanDeformer::Impl {
     bAlpha = VPFFD_B_ALPHA, bInvW = VPFFD_B_INV_W, bDelta = VPFFD_B_DELTA, bFrame = VPFFD_B_FRAME,
     bConsI = VPFFD_B_CONS_I, bStats = VPFFD_B_STATS, bRed = VPFFD_B_RED, bConsD = VPFFD_B_CONS_D,
     bWork = VPFFD_B_WORK, bNrm0 = VPFFD_B_NRM0, bNrm = VPFFD_B_NRM, bNrmTab = VPFFD_B_NRM_TAB,
-    bSort = VPFFD_B_SORT, bTies = VPFFD_B_TIES, bSeam = VPFFD_B_SEAM, kNumBuf = VPFFD_B_COUNT
+    bSort = VPFFD_B_SORT, bTies = VPFFD_B_TIES, bSeam = VPFFD_B_SEAM, bParts = VPFFD_B_PARTS,
+    kNumBuf = VPFFD_B_COUNT
   };
   static_assert(kNumBuf == int(kBindings), "one binding per device buffer");
   Buffer buf[kNumBuf];
@@ -285,6 +299,12 @@ struct VulkanDeformer::Impl {
     if (pl.set) bind(i);
   }
 
+  // Reals of solve.comp's scratch with nc point constraints (its two layouts).
+  size_t work_size(size_t nc) const {
+    const size_t k = size_t(K);
+    return std::max<size_t>(6 * std::max<size_t>(1, nc), 2 * k * nc + 5 * nc + 3 * k * k + 7 * k);
+  }
+
   // ---- set-up ------------------------------------------------------------------
   void build(const std::string& selector, Precision wanted);
   // rest_embedding.cpp
@@ -309,7 +329,7 @@ struct VulkanDeformer::Impl {
   }
   const Deformer& synced_cpu();
   const CorrectionOptions& plan_options(const CorrectionOptions& opt, CorrectionOptions& storage) const;
-  void create_pipelines(const std::array<std::int32_t, 14>& spec);
+  void create_pipelines(const std::array<std::int32_t, 15>& spec);
 
   // ---- frames (all with frame_mutex held) -----------------------------------------
   VkCommandBuffer readback() {

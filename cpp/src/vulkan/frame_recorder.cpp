@@ -51,11 +51,16 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
   vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
   Push pc;
   dispatch(cb, kFfd, g_vert, pc);
-  // With device steps the first one measures the plain FFD's volume.
-  if (shape.measure && !steps) {
-    pc.slot = 0;
-    dispatch(cb, kVolume, g_face, pc);
-  }
+  // A volume pass into region `slot` of red: with parts, g_part workgroups per part.
+  auto volume = [&](int slot) {
+    Push v;
+    v.slot = slot;
+    v.count = static_cast<std::int32_t>(g_part);
+    dispatch(cb, kVolume, red_groups(), v);
+  };
+  // With device steps the first one measures the plain FFD's volume (not per part: with
+  // parts the pass runs, for the result's part volumes before the correction).
+  if (shape.measure && (!steps || K > 1)) volume(0);
   timestamp(cb, 1);
   for (int step = 0; step < k && shape.mode != Shape::Plain; ++step) {
     Push s;
@@ -72,10 +77,7 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
     dispatch(cb, kGather, g_vert, s);
     timestamp(cb, 2 + step);
   }
-  if (shape.measure && shape.mode != Shape::Plain) {
-    pc.slot = 1;
-    dispatch(cb, kVolume, g_face, pc);
-  }
+  if (shape.measure && shape.mode != Shape::Plain) volume(1);
   if (shape.normals) {
     // Of the corrected control points: P plus the offsets' three totals (rows 0-2 of
     // delta: accumulated by the device steps, or uploaded with the host's offsets).
@@ -87,7 +89,7 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
   if (steps) copy(cb, buf[bDelta], rb_delta, 24 * N);
   if (steps) copy(cb, buf[bStats], rb_stats, 8 * ST_STEP_STRIDE * k);
   if (shape.measure) {
-    const VkBufferCopy regions[2] = {{0, 0, 8 * g_face}, {8 * kMaxGroups, 8 * kMaxGroups, 8 * g_face}};
+    const VkBufferCopy regions[2] = {{0, 0, 8 * red_groups()}, {8 * kMaxGroups, 8 * kMaxGroups, 8 * red_groups()}};
     vkCmdCopyBuffer(cb, buf[bRed].handle(), rb_red.handle(), 2, regions);
   }
   host_barrier(cb);

@@ -42,6 +42,10 @@
 //   that position (the plan embeds those few points on the host). The default volume
 //   target is rest_vol, at construction too (the same code, so moving back to the
 //   construction's positions gives its frames bit for bit).
+// - Parts: embed.comp puts each slot's part above its cell in the sort key, so the sort
+//   groups each part's slots (as the CPU's part_start) and tiles never straddle parts;
+//   the rest part volumes are summed on the host (part_volumes over the faces grouped
+//   by part, the CPU's own function and face order), their sum is rest_vol.
 // - The CPU Deformer `cpu` (edges, ffd, jacobians, matrices, error messages) follows a
 //   move lazily: frames do not need it, and synced_cpu() re-embeds it on the host on
 //   its first use after a move.
@@ -50,6 +54,7 @@
 #include "vpffd/lattice/embed.h"
 #include "vpffd/mesh/validate.h"
 #include "vpffd/mesh/volume.h"
+#include "vpffd/volume/part_coefficients.h"
 
 namespace vpffd::vulkan {
 
@@ -59,7 +64,7 @@ void VulkanDeformer::Impl::record_embedding() {
   begin(cb, false);
   barrier(cb);
   copy(cb, up_rest, buf[bRest], 24 * nv);
-  vkCmdFillBuffer(cb, buf[bSort].handle(), 16 * nv, 8 * NE, 0);  // cells without vertices: empty ranges
+  vkCmdFillBuffer(cb, buf[bSort].handle(), 16 * nv, 8 * NE * K, 0);  // keys without vertices: empty ranges
   vkCmdFillBuffer(cb, buf[bTiles].handle(), 0, VK_WHOLE_SIZE, 0);  // tiles past the real ones: empty
   barrier(cb);
   vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
@@ -84,7 +89,7 @@ void VulkanDeformer::Impl::record_embedding() {
   t.flags = 1;
   dispatch(cb, kTiles, g_cp, t);
   Push sc;
-  sc.count = static_cast<std::int32_t>(NE + 1);
+  sc.count = static_cast<std::int32_t>(NE * K + 1);
   dispatch(cb, kScan, 1, sc);
   t.flags = 2;
   dispatch(cb, kTiles, g_cp, t);
@@ -168,13 +173,20 @@ void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     if (embed_pending) stage_rest(rest, where);
     throw;
   }
-  const double vol = signed_volume(X, cpu->faces(), origin);
+  // With parts the rest volume is the sum of theirs, as the CPU Deformer's.
+  VectorXd part_vol;
+  if (K > 1) {
+    const RowMatrixX3d Xc = X;  // contiguous rows
+    part_vol = part_volumes(Xc.data(), part_faces, face_start, origin, 1);
+  }
+  const double vol = K > 1 ? part_vol.sum() : signed_volume(X, cpu->faces(), origin);
   VPFFD_CHECK(std::isfinite(vol), where, ": the mesh's enclosed volume overflows double precision (", vol,
               "; coordinates up to ", X.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
   embed_pending = true;
   if (!defer) flush_embedding();
   rest = X;
   rest_vol = vol;
+  rest_part_vol = K > 1 ? part_vol : VectorXd::Constant(1, vol);
   normals_ready = false;  // the rest normals are of the old positions
 }
 

@@ -12,6 +12,10 @@
 // coefficients: each distinct point sums the tiles of all its copies, in a fixed
 // order). The seams are a specialisation constant; embed.comp wraps the rest positions
 // into the box and keeps per slot what the wrap did (bSeam).
+//
+// Parts (deformer_impl.h): the processing faces are grouped by part; bParts holds the
+// K + 1 face offsets and each slot's part; the cell sort's keys and tables grow to
+// K x NE keys, the tiles' bound to V / 64 + min(V, K cells), alpha to K rows of N.
 
 #include <array>
 
@@ -26,7 +30,7 @@ using detail::groups_for;
 using detail::ms_since;
 using detail::put_reals;
 
-void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 14>& spec) {
+void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 15>& spec) {
   detail::create_compute_pipelines(d, buf, kBindings, sizeof(Push), spec.data(), std::uint32_t(spec.size()),
                                    ff ? kShadersFF : kShaders64, kPipes, pl);
 }
@@ -61,6 +65,15 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   }
   const auto dims = L.dims();
   KKK = T.order[0] * T.order[1] * T.order[2];
+  K = c.n_parts();
+  // Not bad input, a limit of this backend: "auto" then falls back to the CPU.
+  if (K > MAX_DEVICE_PARTS)
+    throw BackendUnavailableError(vpffd::detail::concat("VulkanDeformer: ", K, " parts; the Vulkan backend keeps at most ",
+                                                  MAX_DEVICE_PARTS, " parts (its solve factors the K x K system in "
+                                                  "one workgroup); use a CPU backend"));
+  // The sort keys part * NE + cell, and the K x N coefficient rows, in 32-bit indices.
+  if (Index(K) * NE + 1 >= (Index(1) << 31) || Index(K) * N >= (Index(1) << 31))
+    throw InvalidInputError("VulkanDeformer: too many parts for this lattice (parts x control points over 2^31)");
   if (nv * 3 >= (Index(1) << 31) || nf * 3 >= (Index(1) << 31))
     throw InvalidInputError("VulkanDeformer: the mesh is too large for 32-bit device indices");
 
@@ -88,15 +101,17 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   // enough, so it stays a specialization constant and moves need no new pipelines.
   {
     const Index cells = Index(dims[0] - T.order[0] + 1) * (dims[1] - T.order[1] + 1) * (dims[2] - T.order[2] + 1);
-    n_tiles = (nv + kTile - 1) / kTile + std::min(nv, cells);
+    // With parts the runs are per (part, cell) key: at most min(V, K cells) of them.
+    n_tiles = (nv + kTile - 1) / kTile + std::min(nv, Index(K) * cells);
   }
   if (n_tiles * KKK >= (Index(1) << 31) || 4 * nv + 2 * NE >= (Index(1) << 31))
     throw InvalidInputError("VulkanDeformer: the mesh is too large for 32-bit device indices");
-  // The cell sort: keys (first control point indices) below N, 8 bits per pass, an
-  // even number of passes so that the sorted pairs end in the first array.
+  // The cell sort: keys (part * NE + first control point index) below K NE, 8 bits
+  // per pass, an even number of passes so that the sorted pairs end in the first array.
+  const Index n_keys = Index(K) * NE;
   {
     int bits = 1;
-    while ((Index(1) << bits) < NE) ++bits;
+    while ((Index(1) << bits) < n_keys) ++bits;
     sort_passes = static_cast<std::uint32_t>(2 * ((bits + 15) / 16));
     sort_blocks = static_cast<std::uint32_t>((nv + VPFFD_SORT_BLOCK - 1) / VPFFD_SORT_BLOCK);
     if (sort_blocks > 65535)
@@ -127,7 +142,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   g_face = groups_for(nf, kMaxGroups);
   g_cp = groups_for(NE, 256);
   g_tile = static_cast<std::uint32_t>(std::min<Index>(n_tiles, 65535));
-  const size_t scan_size = std::max<size_t>(size_t(VPFFD_SORT_DIGITS) * sort_blocks, size_t(NE) + 1);
+  const size_t scan_size = std::max<size_t>(size_t(VPFFD_SORT_DIGITS) * sort_blocks, size_t(n_keys) + 1);
 
   using B = detail::Buffer;
   auto mk = [&](Buf i, size_t bytes, const char* what) { buf[i] = B(*dev, bytes, B::DeviceLocal, what); };
@@ -145,9 +160,9 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   mk(bTileVol, 8 * n_tiles, "tile volumes");
   mk(bScan, 4 * scan_size, "cell sort counts");
   mk(bRest, 8 * (3 * nv + em.size()), "rest positions");
-  mk(bSort, 4 * (4 * nv + 2 * NE), "cell sort");
+  mk(bSort, 4 * (4 * nv + 2 * n_keys), "cell sort");
   up_rest = B(*dev, 24 * nv, B::Upload, "rest positions (upload)");
-  mk(bAlpha, 8 * N, "coefficients");
+  mk(bAlpha, 8 * size_t(K) * N, "coefficients");
   mk(bInvW, 8 * N, "inverse weights");
   mk(bDelta, 32 * N, "offsets");
   mk(bStats, 8 * ST_SIZE, "frame results");
@@ -174,10 +189,32 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   bool seam_data = false;
   for (int a = 0; a < 3; ++a) seam_data |= L.seam[a] == Seam::Shift || L.seam[a] == Seam::Twist;
   mk(bSeam, seam_data ? 16 * size_t(nv) : 16, "seam translations");
+  // Parts: each part's faces (the processing faces are grouped by part, Deformer's
+  // set_face_order) and the part of every slot (parts[] of common.glsl).
+  std::vector<std::int32_t> part_map;
+  face_start.assign(K + 1, 0);
+  face_start[1] = nf;
+  if (K > 1) {
+    const std::vector<std::int32_t>& vp = c.parts().vertex_part;
+    std::vector<Index> count(K + 1, 0);
+    part_faces.resize(nf, 3);
+    for (Index f = 0; f < nf; ++f) {
+      const int k = vp[order[Fs(f, 0)]];
+      VPFFD_CHECK(f == 0 || k >= vp[order[Fs(f - 1, 0)]], "VulkanDeformer: the processing faces are not grouped by part");
+      ++count[k + 1];
+      for (int j = 0; j < 3; ++j) part_faces(f, j) = order[Fs(f, j)];
+    }
+    for (int k = 0; k < K; ++k) face_start[k + 1] = face_start[k] + count[k + 1];
+    for (Index s : face_start) part_map.push_back(static_cast<std::int32_t>(s));
+    for (Index i = 0; i < nv; ++i) part_map.push_back(vp[order[i]]);
+    // A volume pass: each part in the same number of workgroups, all within `red`'s slot.
+    g_part = std::max<std::uint32_t>(1, std::min<std::uint32_t>(g_face, kMaxGroups / std::uint32_t(K)));
+  }
+  mk(bParts, std::max<size_t>(16, 4 * part_map.size()), "parts");
   reserve(bFrame, &up_frame, 8 * FR_RHS, "frame parameters");
   reserve(bConsI, &up_cons_i, 4 * (CI_BASE + N + 1), "constraints");
   reserve(bConsD, &up_cons_d, 8, "constraints");
-  reserve(bWork, nullptr, 8 * 6, "solve scratch");
+  reserve(bWork, nullptr, 8 * work_size(0), "solve scratch");
   up_P = B(*dev, 12 * NE, B::Upload, "control points (upload)");
   up_invw = B(*dev, 8 * N, B::Upload, "inverse weights (upload)");
   up_delta = B(*dev, 24 * N, B::Upload, "offsets (upload)");
@@ -205,6 +242,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   put(bPoly, poly.data(), 4 * poly.size());
   put(bNrmTab, nrm_tab_dev.data(), 8 * nrm_tab_dev.size());
   put(bTies, tie_map.data(), 4 * tie_map.size());
+  put(bParts, part_map.data(), 4 * part_map.size());
   // The table goes behind the rest positions (their place is filled per move).
   staging.emplace_back(*dev, 8 * em_dev.size(), B::Upload, "staging");
   std::memcpy(staging.back().mapped(), em_dev.data(), 8 * em_dev.size());
@@ -219,11 +257,11 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
     seams |= static_cast<std::int32_t>(L.seam[a]) << (2 * a);
     if (L.seam[a] != Seam::None) kinds |= 1 << static_cast<int>(L.seam[a]);
   }
-  const std::array<std::int32_t, 14> spec = {T.order[0], T.order[1], T.order[2],
+  const std::array<std::int32_t, 15> spec = {T.order[0], T.order[1], T.order[2],
                                               dims[0], dims[1], dims[2],
                                               static_cast<std::int32_t>(nv), static_cast<std::int32_t>(nf),
                                               static_cast<std::int32_t>(n_tiles), poly_off[1], poly_off[2],
-                                              ties.identity ? 0 : static_cast<std::int32_t>(N), seams, kinds};
+                                              ties.identity ? 0 : static_cast<std::int32_t>(N), seams, kinds, K};
   create_pipelines(spec);
 
   // The construction's rest mesh goes through the same device embedding as every

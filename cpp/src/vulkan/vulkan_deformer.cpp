@@ -24,6 +24,12 @@
 // at all, so the host solves them (exactly as the CPU backend, errors included) and
 // the device only applies the offsets.
 //
+// Parts (several closed objects, each keeping its own volume): the frame is the same
+// with K coefficient rows and K volumes per step (solve.comp's solve_parts), per-part
+// volume passes (volume.comp) before and after the steps, and each part's target in
+// the frame parameters; the device's failure statuses are answered by the CPU backend's
+// message (it names the parts), which runs the frame again on the host (errors only).
+//
 // Periodic lattices (setup.cpp): P is expanded to the extended lattice on the host, the
 // device solves for the distinct control points; offsets, steps and results are the
 // distinct points', as on the CPU.
@@ -42,11 +48,12 @@ using detail::put_reals;
 
 VulkanDeformer::VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
                                Lattice L, OutsidePolicy policy, const std::string& device,
-                               Precision precision)
+                               Precision precision, const MeshParts* parts)
     : impl_(std::make_unique<Impl>()) {
-  // The CPU Deformer validates the input exactly as the CPU backend does and keeps
-  // the exact (float64) rest volume, the edge report and the embedding.
-  impl_->cpu = std::make_unique<Deformer>(V, F, std::move(L), policy);
+  // The CPU Deformer validates the input exactly as the CPU backend does (the parts'
+  // checks included) and keeps the exact (float64) rest volume, the edge report and
+  // the embedding.
+  impl_->cpu = std::make_unique<Deformer>(V, F, std::move(L), policy, 0, parts);
   impl_->build(device, precision);
 }
 
@@ -68,6 +75,7 @@ std::uint64_t VulkanDeformer::index_buffer_handle() const {
   return reinterpret_cast<std::uint64_t>(impl_->buf[Impl::bF].handle());
 }
 const std::vector<std::int32_t>& VulkanDeformer::vertex_order() const { return impl_->slot; }
+VectorXd VulkanDeformer::rest_part_volumes() const { return impl_->rest_part_vol; }
 
 RowMatrixX3d VulkanDeformer::vertices() const {
   std::lock_guard<std::mutex> lock(impl_->frame_mutex);
@@ -94,8 +102,13 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   // method included), so both refuse the same input ----------------------------------
   FramePlan pl = cpu.plan(P, po);
   // The default target is the rest volume this deformer computed (rest_embedding.cpp):
-  // the same number at construction and after any move.
-  if (std::isnan(opt.target_volume)) pl.target = m.rest_vol;
+  // the same number at construction and after any move; with parts each part's.
+  const bool has_parts = cpu.has_parts();
+  const int K = m.K;
+  if (std::isnan(opt.target_volume) && opt.part_targets.empty()) {
+    pl.target = m.rest_vol;
+    if (has_parts) pl.part_targets = m.rest_part_vol;
+  }
   const bool correcting = pl.correcting;
   const bool measure = pl.measure;
   const double target = pl.target;
@@ -157,9 +170,10 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     for (Index c = 0; c < m.NE; ++c)
       for (int a = 0; a < 3; ++a) p[3 * c + a] = static_cast<float>((Q(c, a) - m.origin[a]) / m.scale);
   }
-  m.reserve(Impl::bFrame, &m.up_frame, 8 * (FR_RHS + 3 * nc), "frame parameters");
+  const size_t n_fr = FR_RHS + 3 * nc + (K > 1 ? K : 0);
+  m.reserve(Impl::bFrame, &m.up_frame, 8 * n_fr, "frame parameters");
   {
-    std::vector<double> fr(FR_RHS + 3 * nc, 0.0);
+    std::vector<double> fr(n_fr, 0.0);
     // Volumes on the device are relative to the origin, like the CPU's; lengths in scale units.
     const double s = m.scale, s3 = s * s * s;
     fr[FR_TARGET] = target / s3;
@@ -169,6 +183,9 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
       const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, expand_column(cpu.ties(), P.col(a), a));
       for (size_t i = 0; i < nc; ++i) fr[FR_RHS + a * nc + i] = rhs[i] / s;
     }
+    // Parts: each one's target volume (solve.comp takes its share of what it misses).
+    if (K > 1)
+      for (int p = 0; p < K; ++p) fr[FR_RHS + 3 * nc + p] = pl.part_targets[p] / s3;
     put_reals(m.up_frame.mapped(), fr.data(), fr.size(), m.ff);
   }
   if (shape.mode == Shape::HostOffsets) {
@@ -226,6 +243,18 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
       m.timings = tm;
       m.timings.host_total = ms_since(t_start);
       m.restore_vertices();
+      if (K > 1) {
+        // One row per part: the CPU backend names the parts and constraints at fault
+        // (its solve meets the same rows); should its test pass, ours still stands.
+        lock.unlock();
+        m.synced_cpu().deform(P, opt);
+        if (status == 1)
+          throw SolverError(vpffd::detail::concat(
+              "correction along ", ax, ": the volume coefficients of part ", static_cast<int>(stat(step, 5)),
+              " are zero at every free control point (the part is flat along this axis, outside the lattice's "
+              "reach, or every control point that influences it is fixed)"));
+        throw dependent_rows_error(ax, true, std::numeric_limits<double>::quiet_NaN());
+      }
       if (status == 1)
         throw zero_volume_row_error(ax);
       if (status == 3) {
@@ -255,17 +284,27 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   }
   res.control_points = P + res.offsets;
   if (measure) {
-    // The volume passes' per-workgroup partials, added in a fixed order.
-    double before = 0, after = 0;
-    for (std::uint32_t g = 0; g < m.g_face; ++g) before += get_real(m.rb_red.mapped(), g, m.ff);
-    for (std::uint32_t g = 0; g < m.g_face; ++g) after += get_real(m.rb_red.mapped(), kMaxGroups + g, m.ff);
+    // The volume passes' per-workgroup partials, added in a fixed order; with parts
+    // each part's g_part partials, then the parts in order (the CPU's sums of them).
+    const std::uint32_t per = K > 1 ? m.g_part : m.g_face;
+    VectorXd before = VectorXd::Zero(K), after = VectorXd::Zero(K);
+    for (int p = 0; p < K; ++p)
+      for (std::uint32_t g = 0; g < per; ++g) {
+        before[p] += get_real(m.rb_red.mapped(), p * per + g, m.ff);
+        after[p] += get_real(m.rb_red.mapped(), kMaxGroups + p * per + g, m.ff);
+      }
     before *= s3;
     after *= s3;
-    if (shape.mode == Shape::DeviceSteps && k > 0) before = stat(0, 0) * s3;
+    if (shape.mode == Shape::DeviceSteps && k > 0 && K == 1) before[0] = stat(0, 0) * s3;
     if (shape.mode == Shape::Plain) after = before;
-    res.volume_before = before;
-    res.volume = after;
+    res.volume_before = before.sum();
+    res.volume = after.sum();
+    if (has_parts) {
+      res.part_volumes_before = before;
+      res.part_volumes = after;
+    }
   }
+  if (has_parts && opt.preserve_volume) res.part_targets = pl.part_targets;
   res.constraint_error = constraint_error(rows, expand_points(cpu.ties(), res.control_points), opt.constraints);
   // Under the frame's lock: another thread's frame would overwrite rb_X.
   if (read_vertices) res.vertices = m.unpack_vertices();

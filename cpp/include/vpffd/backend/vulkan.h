@@ -16,7 +16,13 @@
 /// takes (up to the number of free control points); with a volume correction their
 /// block C = R W^-1 R^T is factored on the host once per constraint set (O(nc^3))
 /// and each device step costs O(nc^2); without one they do not depend on the mesh
-/// and are solved on the host exactly as the CPU backend solves them.
+/// and are solved on the host exactly as the CPU backend solves them. Parts (at most
+/// 64): each part's vertices are sorted into their own tiles (the sort key is part,
+/// then cell), each step sums one coefficient row and one volume per part, and the
+/// device eliminates the constraints from the K volume rows (a K x K Schur complement,
+/// factored LDL^T in the step's solve workgroup): the CPU's solve_axis_offsets_parts
+/// in one submission, each part's share of what it misses per step as on the CPU. A
+/// row the device finds zero or dependent is named by the CPU backend's own message.
 ///
 /// Precision: positions, control points and basis values are float32 on the device
 /// (positions relative to origin()); weights, coefficients, volumes and offsets are
@@ -118,9 +124,12 @@ class VulkanDeformer {
   /// @throws InvalidInputError for bad input (as the CPU Deformer),
   ///         BackendUnavailableError when no Vulkan or no suitable device is found,
   ///         DeviceError when a Vulkan call fails (the message names the call)
+  /// @param[in] parts  null, or the mesh's parts (mesh/parts.h), as for Deformer: each
+  ///                    part then keeps its own volume (one volume row per part in every
+  ///                    device axis step), at most MAX_DEVICE_PARTS (64) of them
   VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F, Lattice L,
                  OutsidePolicy policy = OutsidePolicy::Error, const std::string& device = "",
-                 Precision precision = Precision::Auto);
+                 Precision precision = Precision::Auto, const MeshParts* parts = nullptr);
   ~VulkanDeformer();
   VulkanDeformer(const VulkanDeformer&) = delete;
   VulkanDeformer& operator=(const VulkanDeformer&) = delete;
@@ -172,6 +181,10 @@ class VulkanDeformer {
   /// Enclosed volume of the current rest mesh, as Deformer::rest_volume.
   /// @throws InvalidInputError for an open mesh, unless `allow_open`
   double rest_volume(bool allow_open = false) const;
+
+  /// Enclosed volume of each part of the current rest mesh (K; the whole mesh's
+  /// without parts), as Deformer::rest_part_volumes of a Deformer built on it.
+  VectorXd rest_part_volumes() const;
 
   /// The CPU Deformer of the current rest mesh: edges, embedding, jacobians,
   /// matrices... After set_rest_vertices it is re-embedded on the host on the first

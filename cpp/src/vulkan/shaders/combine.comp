@@ -4,12 +4,14 @@
 // (tiles are numbered by cell, tiles.comp), each cell's tiles in order. The order
 // depends only on the cell table, so reruns are bit-identical. On a periodic lattice
 // alpha is over the distinct control points: each sums the tiles of all its extended
-// copies (the fold, lattice/periodic.h), still in a fixed order.
+// copies (the fold, lattice/periodic.h), still in a fixed order. With parts (NPART > 1)
+// there is one row per part, alpha[k * NDC + c]: the same sum over part k's tiles only
+// (those of the keys k * NCP + cell, tiles.comp), so each part's row is its own mesh's.
 #include "common.glsl"
 layout(local_size_x = VPFFD_GROUP) in;
 
 // The tiles' partials of extended control point c, added to s.
-real add_tiles(int c, real s) {
+real add_tiles(int c, int key0, real s) {
   const int i = c / (NV * NW), j = (c / NW) % NV, k = c % NW;
   // Cell (i - di, j - dj, k - dk) holds c at local (di, dj, dk); decreasing offsets
   // visit the cells in increasing index.
@@ -23,7 +25,7 @@ real add_tiles(int c, real s) {
         const int ck = k - dk;
         if (ck < 0 || ck > NW - KW) continue;
         const int cell = (ci * NV + cj) * NW + ck, o = (di * KV + dj) * KW + dk;
-        for (uint t = scan_buf[cell]; t < scan_buf[cell + 1]; ++t) s = r_add(s, partial[int(t) * KKK + o]);
+        for (uint t = scan_buf[key0 + cell]; t < scan_buf[key0 + cell + 1]; ++t) s = r_add(s, partial[int(t) * KKK + o]);
       }
     }
   }
@@ -32,15 +34,16 @@ real add_tiles(int c, real s) {
 
 void main() {
   const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-  for (uint c = gl_GlobalInvocationID.x; c < uint(NDC); c += stride) {
+  for (uint row = gl_GlobalInvocationID.x; row < uint(NPART * NDC); row += stride) {
+    const int k = int(row) / NDC, c = int(row) % NDC, key0 = k * NCP;
     real s = r_zero();
     if (TIED) {
       // The fold of lattice/periodic.h: a distinct point's coefficient is the sum of
       // those of its extended copies (itself first), in increasing index.
-      for (int p = ties[TIE_PTR + int(c)]; p < ties[TIE_PTR + int(c) + 1]; ++p) s = add_tiles(ties[TIE_LIST + p], s);
+      for (int p = ties[TIE_PTR + c]; p < ties[TIE_PTR + c + 1]; ++p) s = add_tiles(ties[TIE_LIST + p], key0, s);
     } else {
-      s = add_tiles(int(c), s);
+      s = add_tiles(c, key0, s);
     }
-    alpha[c] = s;
+    alpha[row] = s;
   }
 }

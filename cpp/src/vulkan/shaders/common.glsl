@@ -37,12 +37,16 @@ layout(constant_id = 10) const int POLY_W = 0;
 layout(constant_id = 11) const int NDIST = 0;
 layout(constant_id = 12) const int SEAMS = 0;
 layout(constant_id = 13) const int SEAM_KINDS = 0;
+layout(constant_id = 14) const int NPART = 1;  // parts, each keeping its own volume (1: the whole mesh)
 
 const int NCP = NU * NV * NW;     // control points of the (extended) lattice the spline evaluates
 const int KKK = KU * KV * KW;
 // (Plain comparisons only: glslang's optimiser fails on || of specialisation constants.)
 const bool TIED = NDIST > 0;
 const int NDC = TIED ? NDIST : NCP;  // the control points a frame solves for (alpha, inv_w, delta rows)
+// The cell sort's keys: part * NCP + cell, so each part's slots are one range of sorted
+// positions and no tile straddles two parts (one part: the cell).
+const int NKEY = NPART * NCP;
 const bool ANY_SHIFT = (SEAM_KINDS & (1 << SEAM_SHIFT)) != 0;
 const bool ANY_TWIST = (SEAM_KINDS & (1 << SEAM_TWIST)) != 0;
 int seam_of(int a) { return (SEAMS >> (2 * a)) & 0x3; }
@@ -106,6 +110,8 @@ const int TIE_LIST = NCP + NDIST + 1;
 // shift seam adds to the image of the wrapped rest position (xyz, device units) and
 // whether a twist seam mirrored it (w: 1 or 0).
 layout(std430, set = 0, binding = VPFFD_B_SEAM) buffer BufSeam { vec4 seam[]; };
+layout(std430, set = 0, binding = VPFFD_B_PARTS) readonly buffer BufParts { int parts[]; };
+const int PT_SLOT = NPART + 1;  // parts[PT_SLOT + v]: the part of vertex slot v
 
 // The distinct control point whose displacement extended control point c takes
 // (a displacement is tied by a pure copy: no shift constant).

@@ -105,7 +105,10 @@ void main() {
       first[a] = s - d;
       span[3 * v + a] = s - d;
     }
-    sorted[2 * v] = (first[0] * NV + first[1]) * NW + first[2];
+    // The sort key: the cell, after the part (the most significant digits: each part's
+    // slots become one range of sorted positions, as the CPU's part_start).
+    const int part = NPART > 1 ? parts[PT_SLOT + v] : 0;
+    sorted[2 * v] = part * NCP + (first[0] * NV + first[1]) * NW + first[2];
     sorted[2 * v + 1] = int(v);
   }
 }

@@ -35,7 +35,8 @@
 #define VPFFD_B_SORT 25       // int: two (cell, slot) arrays of 2V (the sort's ping-pong), then (start, end) per cell
 #define VPFFD_B_TIES 26       // int: periodic tie map (common.glsl TIE_*)
 #define VPFFD_B_SEAM 27       // vec4 per vertex slot: shift seam translation, twist seam mirror flag
-#define VPFFD_B_COUNT 28
+#define VPFFD_B_PARTS 28      // int, with parts: each part's faces [PT_FACE_START + k, + k + 1), each slot's part
+#define VPFFD_B_COUNT 29
 
 // Workgroup sizes.
 #define VPFFD_TILE 64         // vertices per tile = coef.comp's workgroup size
@@ -53,7 +54,8 @@ const int RED_STRIDE = VPFFD_RED_STRIDE;
 const int FR_TARGET = 0;
 const int FR_MAX_INVW = 1;
 const int FR_HI = 2;          // largest eigenvalue of the unit-diagonal constraint block (>= 1)
-const int FR_RHS = 8;         // 3 x nc, axis-major: target - B(u_s) . P along the axis
+const int FR_RHS = 8;         // 3 x nc, axis-major: target - B(u_s) . P along the axis; then with
+                              // parts their K target volumes (FR_RHS + 3 nc + k)
 // cons_i[]: ints.
 const int CI_NC = 0;
 const int CI_PTR = 1;         // offset of the per-control-point lists (N + 1 entries)
@@ -79,6 +81,12 @@ const int SEAM_CLOSED = 2;
 const int SEAM_TWIST = 3;
 // Push flags of embed.comp: clamp the parameter into the domain (outside = error).
 const int EM_CLAMP = 1;
+// parts[]: ints (binding VPFFD_B_PARTS, with NPART > 1): the K + 1 face offsets of the
+// parts (the faces are grouped by part), then the part of every vertex slot.
+const int PT_FACE_START = 0;
+// The most parts the device solve takes (an LDL^T of the K x K Schur complement by one
+// invocation, solve.comp).
+const int MAX_DEVICE_PARTS = 64;
 // stats[]: reals, per step: volume_before, share, sum_squares, max_offset, status, detail.
 const int ST_STEP = 0;
 const int ST_STEP_STRIDE = 8;
