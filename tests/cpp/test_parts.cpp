@@ -203,6 +203,28 @@ TEST(Parts, ComponentsAndBadLabels) {
   }
 }
 
+// Rest positions given as a strided view (the first three columns of a wider array,
+// which an Eigen::Ref binds without a copy): the volumes read the rows where they are.
+TEST(MovingRest, StridedPositionsGiveTheSameVolumes) {
+  const TriMesh m = spheres(2);
+  const Lattice L = lattice_around(m.V, {7, 5, 5}, 3, 0.3);
+  const MeshParts parts = parts_from_labels(m.F, sphere_labels(m, 2), m.V.rows());
+  Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor> wide(m.V.rows(), 4);
+  wide.leftCols(3) = m.V;
+  wide.col(3).setConstant(1e3);  // read as a coordinate, it would change every volume
+  const Eigen::Map<const RowMatrixX3d, 0, Eigen::OuterStride<>> view(wide.data(), m.V.rows(), 3,
+                                                                      Eigen::OuterStride<>(4));
+  EXPECT_EQ(signed_volume(view, m.F), signed_volume(m.V, m.F));
+  for (const MeshParts* pp : {static_cast<const MeshParts*>(nullptr), &parts}) {
+    Deformer D(view, m.F, L, OutsidePolicy::Error, 0, pp);
+    const Deformer plain(m.V, m.F, L, OutsidePolicy::Error, 0, pp);
+    EXPECT_EQ(D.rest_volume(), plain.rest_volume());
+    EXPECT_EQ(D.rest_part_volumes(), plain.rest_part_volumes());
+    D.set_rest_vertices(view);
+    EXPECT_EQ(D.rest_part_volumes(), plain.rest_part_volumes());
+  }
+}
+
 TEST(MovingRest, EqualsAFreshDeformerBitForBit) {
   const TriMesh m = spheres(2);
   const Lattice L = lattice_around(m.V, {7, 5, 5}, 3, 0.3);

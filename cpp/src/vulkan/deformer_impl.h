@@ -121,13 +121,11 @@ struct VulkanDeformer::Impl {
   // Parts (each keeping its own volume; 1 without parts or with one part): the device
   // sorts each part's slots into one range (the sort key is part * NE + cell), combine
   // writes one coefficient row per part, solve.comp takes one volume row per part and
-  // volume.comp sums each part's faces (grouped by part, face_start) in its own
-  // g_part workgroups. `part_faces`: the faces in that order, input numbering (the
-  // host's rest part volumes after a move, as the CPU's part_volumes of its Fp_).
+  // volume.comp sums each part's faces (grouped by part, part_face_start) in its own
+  // g_part workgroups. The host's rest part volumes after a move sum the CPU
+  // Deformer's part_faces() (fixed at construction), as its own moves do.
   int K = 1;
   std::uint32_t g_part = 1;
-  std::vector<Index> face_start;
-  RowMatrixX3i part_faces;
   VectorXd rest_part_vol;  // K, with parts: each part's rest volume (the default targets)
   std::uint32_t g_vert = 1, g_face = 1, g_cp = 1, g_tile = 1;
   // Workgroups of a volume pass, and so its partials in `red` (per part: g_part each).

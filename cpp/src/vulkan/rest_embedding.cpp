@@ -175,10 +175,7 @@ void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   }
   // With parts the rest volume is the sum of theirs, as the CPU Deformer's.
   VectorXd part_vol;
-  if (K > 1) {
-    const RowMatrixX3d Xc = X;  // contiguous rows
-    part_vol = part_volumes(Xc.data(), part_faces, face_start, origin, 1);
-  }
+  if (K > 1) part_vol = part_volumes(X, cpu->part_faces(), cpu->part_face_start(), origin, 1);
   const double vol = K > 1 ? part_vol.sum() : signed_volume(X, cpu->faces(), origin);
   VPFFD_CHECK(std::isfinite(vol), where, ": the mesh's enclosed volume overflows double precision (", vol,
               "; coordinates up to ", X.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");

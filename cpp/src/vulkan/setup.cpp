@@ -189,23 +189,12 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   bool seam_data = false;
   for (int a = 0; a < 3; ++a) seam_data |= L.seam[a] == Seam::Shift || L.seam[a] == Seam::Twist;
   mk(bSeam, seam_data ? 16 * size_t(nv) : 16, "seam translations");
-  // Parts: each part's faces (the processing faces are grouped by part, Deformer's
-  // set_face_order) and the part of every slot (parts[] of common.glsl).
+  // Parts: each part's face range in the processing faces (grouped by part by the CPU
+  // Deformer, part_face_start) and the part of every slot (parts[] of common.glsl).
   std::vector<std::int32_t> part_map;
-  face_start.assign(K + 1, 0);
-  face_start[1] = nf;
   if (K > 1) {
     const std::vector<std::int32_t>& vp = c.parts().vertex_part;
-    std::vector<Index> count(K + 1, 0);
-    part_faces.resize(nf, 3);
-    for (Index f = 0; f < nf; ++f) {
-      const int k = vp[order[Fs(f, 0)]];
-      VPFFD_CHECK(f == 0 || k >= vp[order[Fs(f - 1, 0)]], "VulkanDeformer: the processing faces are not grouped by part");
-      ++count[k + 1];
-      for (int j = 0; j < 3; ++j) part_faces(f, j) = order[Fs(f, j)];
-    }
-    for (int k = 0; k < K; ++k) face_start[k + 1] = face_start[k] + count[k + 1];
-    for (Index s : face_start) part_map.push_back(static_cast<std::int32_t>(s));
+    for (Index s : c.part_face_start()) part_map.push_back(static_cast<std::int32_t>(s));
     for (Index i = 0; i < nv; ++i) part_map.push_back(vp[order[i]]);
     // A volume pass: each part in the same number of workgroups, all within `red`'s slot.
     g_part = std::max<std::uint32_t>(1, std::min<std::uint32_t>(g_face, kMaxGroups / std::uint32_t(K)));

@@ -135,6 +135,12 @@ class Deformer {
   const MeshParts& parts() const { return parts_; }
   /// Each part's vertices in processing order: [part_start()[k], part_start()[k+1]).
   const std::vector<Index>& part_start() const { return part_start_; }
+  /// Each part's faces: [part_face_start()[k], part_face_start()[k+1]) of
+  /// processing_faces() and of part_faces() (K + 1; [0, F] without parts).
+  const std::vector<Index>& part_face_start() const { return face_start_; }
+  /// With parts: the faces in face_processing_order(), in the caller's vertex numbering
+  /// (each part's faces together); empty without parts. Fixed at construction.
+  const RowMatrixX3i& part_faces() const { return Fp_; }
   /// Enclosed volume of each part of the rest mesh (K; the whole mesh without parts,
   /// and then only when it is closed). @throws InvalidInputError for an open mesh
   VectorXd rest_part_volumes() const {
@@ -273,7 +279,7 @@ class Deformer {
     // With parts the rest volume is the sum of theirs (the frames' default target is
     // too), each summed over its faces: one face pass either way.
     VectorXd part_rest;
-    if (has_parts_) part_rest = part_volumes(V.data(), Fp_, face_start_, origin_, threads);
+    if (has_parts_) part_rest = part_volumes(V, Fp_, face_start_, origin_, threads);
     const double rest_volume = has_parts_ ? part_rest.sum() : signed_volume(V, F_, origin_, threads);
     // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
     // and every volume a frame reports or aims at would be inf or NaN.

@@ -45,6 +45,9 @@ inline double signed_volume(const double* V, const Eigen::Ref<const RowMatrixX3i
 
 inline double signed_volume(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
                             const Vector3d& origin = Vector3d::Zero(), int threads = 0) {
+  // The pointer form reads rows three doubles apart; a strided view (three columns of
+  // a wider array, which a Ref binds without copying) is copied first.
+  if (V.rows() > 1 && V.outerStride() != 3) return signed_volume(RowMatrixX3d(V).data(), F, origin, threads);
   return signed_volume(V.data(), F, origin, threads);
 }
 

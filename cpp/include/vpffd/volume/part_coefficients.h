@@ -114,4 +114,11 @@ inline VectorXd part_volumes(const double* X, const Eigen::Ref<const RowMatrixX3
   return vol;
 }
 
+/// The same for vertices in any row stride (a strided view is copied once).
+inline VectorXd part_volumes(const Eigen::Ref<const RowMatrixX3d>& X, const Eigen::Ref<const RowMatrixX3i>& F,
+                             const std::vector<Index>& face_start, const Vector3d& origin, int threads = 0) {
+  if (X.rows() > 1 && X.outerStride() != 3) return part_volumes(RowMatrixX3d(X).data(), F, face_start, origin, threads);
+  return part_volumes(X.data(), F, face_start, origin, threads);
+}
+
 }  // namespace vpffd
