@@ -1,3 +1,6 @@
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <random>
 
 #include "helpers.h"
@@ -121,6 +124,54 @@ TEST(BSpline, SpanLocatorFindsFindSpansSpan) {
         if (u >= t[d] && u < t[n]) EXPECT_EQ(locate.local(u, s) >= 0.0 && locate.local(u, s) < 1.0 + 1e-15, true);
       }
     }
+}
+
+TEST(BSpline, SpanLocatorLocateIsTheSearchUpToRounding) {
+  // locate() on uniform knots: s = d + floor(g), tau = g - floor(g), g = (u - t_d) / h,
+  // against find_span's span and (u - t_s) / (t_{s+1} - t_s). Rounding: g errs by a
+  // few eps |g|, each knot by a few eps max(|lo|, |hi|), i.e. that over h in span
+  // units, and tau* by 2 eps; 8 eps (|g| + max(|lo|, |hi|) / h + 1) covers them. Within
+  // that of a knot the neighbouring span may be taken, with tau ~ 1 for tau* ~ 0 (or
+  // the reverse). On non-uniform knots locate() is the search itself, bit for bit.
+  const double eps = std::numeric_limits<double>::epsilon();
+  std::mt19937 rng(5);
+  int checked = 0;
+  for (int d = 1; d <= 5; ++d)
+    for (int trial = 0; trial < 24; ++trial) {
+      const int n = d + 1 + static_cast<int>(rng() % 40);
+      const double lo = trial % 3 == 0 ? 0.0 : -5.0 + 10.0 * (rng() % 1000) / 1000.0;
+      const double hi = lo + (trial % 3 == 0 ? 1.0 : 0.01 + 20.0 * (rng() % 1000) / 1000.0);
+      const bool uniform = trial % 4 != 3, periodic = uniform && trial % 2 == 1;
+      // A periodic axis of m distinct points has m + d control points (extended axis).
+      const int m = std::max(d + 1, n - d), nn = periodic ? m + d : n;
+      const std::vector<double> t = !uniform   ? random_knots(n, d, rng)
+                                    : periodic ? periodic_uniform_knots(m, d, lo, hi)
+                                               : clamped_uniform_knots(n, d, lo, hi);
+      const SpanLocator locate(t, nn, d);
+      const double a = t[d], b = t[nn], h = (b - a) / (nn - d);
+      std::vector<double> us = {a - 0.3 * (b - a), a, b, std::nextafter(b, b + 1), b + 0.7 * (b - a)};
+      for (int i = d; i <= nn; ++i) us.insert(us.end(), {t[i], std::nextafter(t[i], a - 1), std::nextafter(t[i], b + 1)});
+      std::uniform_real_distribution<double> U(a - 0.1 * (b - a), b + 0.1 * (b - a));
+      for (int i = 0; i < 300; ++i) us.push_back(U(rng));
+      for (double u : us) {
+        double tau = 0;
+        const int s = locate.locate(u, tau);
+        const int s0 = find_span(t, nn, d, u);
+        const double tau0 = locate.local(u, s0);
+        ++checked;
+        if (!uniform) {
+          ASSERT_EQ(s, s0);
+          ASSERT_EQ(tau, tau0);
+          continue;
+        }
+        const double g = (u - a) / h;
+        const double bound = 8 * eps * (std::abs(g) + std::max(std::abs(a), std::abs(b)) / h + 1);
+        ASSERT_LE(std::abs(s - s0), 1) << "d " << d << " u " << u;
+        ASSERT_NEAR(tau + (s - s0), tau0, bound) << "d " << d << " n " << nn << " u " << u << " span " << s << " vs "
+                                                 << s0;
+      }
+    }
+  EXPECT_GT(checked, 10000);
 }
 
 TEST(BSpline, EmbeddingInAGivenOrderIsTheEmbeddingPermuted) {

@@ -111,10 +111,30 @@ struct SpanLocator {
         inv_length(knots.size(), 0.0) {
     for (size_t s = 0; s + 1 < knots.size(); ++s)
       if (knots[s + 1] > knots[s]) inv_length[s] = 1.0 / (knots[s + 1] - knots[s]);
+    uniform_ = true;
+    for (int s = d; s <= n; ++s)
+      uniform_ = uniform_ && std::abs(t[s] - (lo + (s - d) / steps_per_unit)) <= 1e-9 / steps_per_unit;
   }
 
   /// The local parameter of u in span s: (u - t_s) / (t_{s+1} - t_s), as a multiply.
   double local(double u, int s) const { return (u - t[s]) * inv_length[s]; }
+
+  /// The span of u and its local parameter together (u finite). On uniform knots
+  /// both come from g = (u - t_d) steps_per_unit alone: s = d + floor(g) kept in
+  /// [d, n - 1], tau = g - (s - d), no knot read, so a loop of them vectorises;
+  /// within rounding of a knot that may be the neighbouring span with tau ~ 1 instead
+  /// of ~ 0 (the same point of a continuous spline). Otherwise operator() and local().
+  int locate(double u, double& tau) const {
+    if (uniform_) {
+      const double g = (u - lo) * steps_per_unit;
+      const double f = std::clamp(std::floor(g), 0.0, double(n - 1 - d));
+      tau = g - f;
+      return d + static_cast<int>(f);
+    }
+    const int s = (*this)(u);
+    tau = local(u, s);
+    return s;
+  }
 
   int operator()(double u) const {
     // Outside [t_d, t_n) (ends, extrapolation, NaN): find_span's end rules.
@@ -127,6 +147,8 @@ struct SpanLocator {
   }
 
  private:
+  bool uniform_ = false;  ///< knots t_d..t_n evenly spaced, to 1e-9 of a span
+
   int end_span(double u) const {
     int s;
     if (u >= hi) {

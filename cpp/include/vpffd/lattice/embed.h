@@ -74,7 +74,7 @@ inline void embed_into(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X
   }
   // Per-axis constants in locals: read through L inside the loop they would be
   // reloaded after every store (the stores could alias them, as far as the compiler knows).
-  double in_lo[3], in_hi[3], dom_lo[3], dom_hi[3], far_lo[3], far_hi[3];
+  double in_lo[3], in_hi[3], dom_lo[3], dom_hi[3], far_lo[3], far_hi[3], box_lo[3], scale[3];
   for (int a = 0; a < 3; ++a) {
     // Rounding in the box computation must not throw out points on its faces.
     const double tol = 1e-12 * (L.box_max[a] - L.box_min[a]);
@@ -87,75 +87,88 @@ inline void embed_into(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X
     // overflow. Such points are refused with the non-finite ones.
     far_lo[a] = dom_lo[a] - 1e3 * (dom_hi[a] - dom_lo[a]);
     far_hi[a] = dom_hi[a] + 1e3 * (dom_hi[a] - dom_lo[a]);
+    box_lo[a] = L.box_min[a];
+    scale[a] = (dom_hi[a] - dom_lo[a]) / (L.box_max[a] - L.box_min[a]);  // ParameterMap's
   }
   const SpanLocator locate[3] = {{L.knots[0], L.dim(0), L.degree[0]},
                                  {L.knots[1], L.dim(1), L.degree[1]},
                                  {L.knots[2], L.dim(2), L.degree[2]}};
-  const ParameterMap to_parameter(L);
   const bool periodic = L.any_periodic(), clamp = policy == OutsidePolicy::Error;
+  // Points go in blocks: their coordinates copied (in processing order, wrapped on
+  // periodic axes) into a buffer that stays in L1, then one axis at a time in a loop
+  // with no data-dependent branch (SpanLocator::locate). A refused or outside point
+  // is only noted there; the error path below looks for it again, in row order.
+  constexpr Index kBlock = 512;
   const int chunks = chunk_count(n);
-  std::vector<Index> first_bad(chunks, -1), n_bad(chunks, 0), first_nan(chunks, -1);
+  std::vector<char> flagged(chunks, 0);  // bit 0: a point outside the box; bit 1: a refused point
   parallel_chunks(n, chunks, threads, [&](int c, Index b, Index e) {
-    std::int32_t* __restrict span[3] = {E.span[0].data(), E.span[1].data(), E.span[2].data()};
-    double* __restrict tau[3] = {E.tau[0].data(), E.tau[1].data(), E.tau[2].data()};
-    // The lowest row index among this chunk's failures (the message names it).
-    auto note = [](Index& first, Index row) { first = first < 0 ? row : std::min(first, row); };
-    for (Index v = b; v < e; ++v) {
-      const Index row = order ? Index(order[v]) : v;
-      // Periodic axes have no outside: the point is wrapped into the box.
-      const Vector3d x = periodic ? wrap_point(L, X.row(row).transpose()) : Vector3d(X.row(row).transpose());
-      if (!x.allFinite()) {
-        note(first_nan[c], row);
-        continue;
-      }
-      // x is finite, so u is not NaN, and an infinite u is too far.
-      const Vector3d u = to_parameter(x);
-      bool outside = false, too_far = false;
-      for (int a = 0; a < 3; ++a) {
-        outside |= x[a] < in_lo[a] || x[a] > in_hi[a];
-        too_far |= u[a] < far_lo[a] || u[a] > far_hi[a];
-      }
-      if (outside) {
-        note(first_bad[c], row);
-        ++n_bad[c];
-      }
-      if (too_far) {
-        note(first_nan[c], row);
-        continue;
+    alignas(32) double buf[3 * kBlock];
+    bool any_out = false, any_far = false;
+    for (Index b0 = b; b0 < e; b0 += kBlock) {
+      const Index m = std::min(kBlock, e - b0);
+      for (Index i = 0; i < m; ++i) {
+        const Index row = order ? Index(order[b0 + i]) : b0 + i;
+        Vector3d x(X(row, 0), X(row, 1), X(row, 2));
+        // Periodic axes have no outside: the point is wrapped into the box.
+        if (periodic) x = wrap_point(L, x);
+        for (int a = 0; a < 3; ++a) buf[a * kBlock + i] = x[a];
       }
       for (int a = 0; a < 3; ++a) {
-        const double ua = clamp ? std::clamp(u[a], dom_lo[a], dom_hi[a]) : u[a];
-        const int s = locate[a](ua);
-        span[a][v] = s;
-        tau[a][v] = locate[a].local(ua, s);
+        const SpanLocator& loc = locate[a];
+        const double lo_in = in_lo[a], hi_in = in_hi[a], lo_dom = dom_lo[a], hi_dom = dom_hi[a],
+                     lo_far = far_lo[a], hi_far = far_hi[a], lo_box = box_lo[a], k = scale[a];
+        const double* __restrict xa = buf + a * kBlock;
+        std::int32_t* __restrict span = E.span[a].data() + b0;
+        double* __restrict tau = E.tau[a].data() + b0;
+        bool out = false, far = false;
+        for (Index i = 0; i < m; ++i) {
+          out |= !(xa[i] >= lo_in && xa[i] <= hi_in);
+          double u = lo_dom + (xa[i] - lo_box) * k;
+          const bool ok = u >= lo_far && u <= hi_far;  // false for NaN
+          far |= !ok;
+          u = ok ? u : lo_dom;  // a refused point gets any finite value
+          if (clamp) u = std::min(std::max(u, lo_dom), hi_dom);
+          double t;
+          span[i] = loc.locate(u, t);
+          tau[i] = t;
+        }
+        any_out |= out;
+        any_far |= far;
       }
     }
+    flagged[c] = static_cast<char>((any_out ? 1 : 0) | (any_far ? 2 : 0));
   });
-  // The lowest row index over the chunks (with `order` the chunks are not in row order).
-  auto lowest = [&](const std::vector<Index>& per_chunk) {
-    Index first = -1;
-    for (Index f : per_chunk)
-      if (f >= 0 && (first < 0 || f < first)) first = f;
-    return first;
-  };
-  const Index bad_point = lowest(first_nan);
-  VPFFD_CHECK(bad_point < 0, "embed: ", what, " ", bad_point,
-              " is not finite, or too far from the lattice (over 1000 box extents)");
-  if (policy == OutsidePolicy::Error) {
-    Index total = 0;
-    for (int c = 0; c < chunks; ++c) total += n_bad[c];
-    const Index first = lowest(first_bad);
-    if (total > 0) {
-      const Vector3d x = X.row(first).transpose();
-      const std::string noun = total == 1 ? std::string(what) + " lies"
-                               : std::string(what) == "vertex" ? std::string("vertices lie")
-                                                               : std::string(what) + "s lie";
-      throw InvalidInputError(detail::concat(
-          "embed: ", total, " ", noun, " outside the lattice box [", L.box_min.x(),
-          ", ", L.box_max.x(), "] x [", L.box_min.y(), ", ", L.box_max.y(), "] x [", L.box_min.z(), ", ",
-          L.box_max.z(), "], the first is ", what, " ", first, " at (", x.x(), ", ", x.y(), ", ", x.z(),
-          "); enlarge the lattice (padding) or pass outside='extrapolate'"));
+  char any = 0;
+  for (char f : flagged) any |= f;
+  if (!(any & 2) && !(clamp && (any & 1))) return;
+  // The error path: the message names the lowest row index, whatever `order`.
+  Index first_far = -1, first_out = -1, n_out = 0;
+  for (Index row = 0; row < n && first_far < 0; ++row) {
+    const Vector3d x = periodic ? wrap_point(L, X.row(row).transpose()) : Vector3d(X.row(row).transpose());
+    bool outside = false, too_far = !x.allFinite();
+    for (int a = 0; a < 3 && !too_far; ++a) {
+      const double u = dom_lo[a] + (x[a] - box_lo[a]) * scale[a];
+      outside |= x[a] < in_lo[a] || x[a] > in_hi[a];
+      too_far |= u < far_lo[a] || u > far_hi[a];  // x is finite, so u is not NaN
     }
+    if (too_far) first_far = row;
+    if (outside && !too_far) {
+      if (first_out < 0) first_out = row;
+      ++n_out;
+    }
+  }
+  VPFFD_CHECK(first_far < 0, "embed: ", what, " ", first_far,
+              " is not finite, or too far from the lattice (over 1000 box extents)");
+  if (clamp && n_out > 0) {
+    const Vector3d x = X.row(first_out).transpose();
+    const std::string noun = n_out == 1 ? std::string(what) + " lies"
+                             : std::string(what) == "vertex" ? std::string("vertices lie")
+                                                             : std::string(what) + "s lie";
+    throw InvalidInputError(detail::concat(
+        "embed: ", n_out, " ", noun, " outside the lattice box [", L.box_min.x(), ", ", L.box_max.x(), "] x [",
+        L.box_min.y(), ", ", L.box_max.y(), "] x [", L.box_min.z(), ", ", L.box_max.z(), "], the first is ", what,
+        " ", first_out, " at (", x.x(), ", ", x.y(), ", ", x.z(),
+        "); enlarge the lattice (padding) or pass outside='extrapolate'"));
   }
 }
 
