@@ -450,7 +450,10 @@ class Deformer:
 
     def last_timings(self):
         """Vulkan only: times of the last frame in ms (``gpu_total_ms`` from timestamp
-        queries, ``gpu_ffd_ms``, ``gpu_steps_ms`` per axis, ``host_total_ms`` end to end)."""
+        queries, ``gpu_ffd_ms``, ``gpu_steps_ms`` per axis, ``host_total_ms`` end to end;
+        ``gpu_move_ms``: the device embedding, cell sort and tiles of a
+        ``set_rest_vertices`` that ran first in this frame's submission, not part of
+        ``gpu_total_ms``, 0.0 when no move waited for the frame)."""
         if self._vk is None:
             raise InvalidInputError("last_timings: only the 'vulkan' backend records frame timings")
         return self._vk.last_timings()

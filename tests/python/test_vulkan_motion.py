@@ -141,6 +141,31 @@ def test_reruns_are_bit_identical_and_moving_back_reproduces(precision):
     assert back.volume == first.volume
 
 
+def test_the_frame_after_a_move_times_its_device_embedding(precision):
+    # gpu_move_ms (bench_motion's device column) is the move's own work: present in
+    # the frame that ran it, in no other, and not counted in gpu_total_ms.
+    mesh = vpffd.shapes.icosphere(3)
+    lat = _lattice()
+    P = edit(lat)
+    g = gpu_deformer(mesh, lat, precision)
+    g.deform(P, preserve_volume=False)
+    if not g.last_timings()["has_timestamps"]:
+        pytest.skip("the device's queue has no timestamps")
+    assert g.last_timings()["gpu_move_ms"] == 0.0
+    for frame in (dict(preserve_volume=False), dict(axes="xyz")):
+        g.set_rest_vertices(mesh.vertices * 0.9 + [0.2, -0.1, 0.05])
+        g.deform(P, **frame)
+        moved = g.last_timings()
+        assert moved["gpu_move_ms"] > 0.0
+        g.deform(P, **frame)
+        assert g.last_timings()["gpu_move_ms"] == 0.0
+    # Two moves without a frame between them: the device embeds the last one, once.
+    g.set_rest_vertices(mesh.vertices * 0.8)
+    g.set_rest_vertices(mesh.vertices * 0.85)
+    g.deform(P)
+    assert g.last_timings()["gpu_move_ms"] > 0.0
+
+
 def test_many_control_points_four_sort_passes(precision):
     # 42 x 40 x 42 = 70560 control points > 2^16: four radix passes.
     mesh = vpffd.shapes.icosphere(3)

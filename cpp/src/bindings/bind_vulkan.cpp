@@ -32,6 +32,7 @@ py::dict timings_to_python(const vulkan::FrameTimings& t) {
   o["gpu_ffd_ms"] = t.gpu_ffd;
   o["gpu_steps_ms"] = t.gpu_steps;
   o["gpu_final_ms"] = t.gpu_final;
+  o["gpu_move_ms"] = t.gpu_move;
   o["host_total_ms"] = t.host_total;
   o["has_timestamps"] = t.has_timestamps;
   return o;

@@ -53,6 +53,8 @@ constexpr int kTile = VPFFD_TILE;
 constexpr int kGroup = VPFFD_GROUP;
 constexpr std::uint32_t kMaxGroups = VPFFD_RED_STRIDE;
 constexpr std::uint32_t kQueries = 3 + kMaxSteps;
+// After the frame's queries: the start and end of a move's device embedding (embed_cb).
+constexpr std::uint32_t kMoveQuery = kQueries;
 constexpr size_t kMaxRecorded = 4;  // frame command buffers kept, one per options shape
 
 // The push constants: the `Push` block of shaders/common.glsl, field by field.
@@ -102,6 +104,7 @@ using detail::kGroup;
 using detail::kMaxGroups;
 using detail::kMaxRecorded;
 using detail::kMaxSteps;
+using detail::kMoveQuery;
 using detail::kQueries;
 using detail::kTile;
 using detail::ST_SIZE;

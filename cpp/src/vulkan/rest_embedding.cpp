@@ -62,6 +62,10 @@ void VulkanDeformer::Impl::record_embedding() {
   embed_cb = detail::allocate_command_buffer(d, cmd_pool.get());
   const VkCommandBuffer cb = embed_cb;
   begin(cb, false);
+  if (dev->timestamps) {
+    vkCmdResetQueryPool(cb, queries.get(), kMoveQuery, 2);
+    vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries.get(), kMoveQuery);
+  }
   barrier(cb);
   copy(cb, up_rest, buf[bRest], 24 * nv);
   vkCmdFillBuffer(cb, buf[bSort].handle(), 16 * nv, 8 * NE * K, 0);  // keys without vertices: empty ranges
@@ -93,6 +97,7 @@ void VulkanDeformer::Impl::record_embedding() {
   dispatch(cb, kScan, 1, sc);
   t.flags = 2;
   dispatch(cb, kTiles, g_cp, t);
+  timestamp(cb, kMoveQuery + 1);
   detail::check(vkEndCommandBuffer(cb), "vkEndCommandBuffer");
 }
 

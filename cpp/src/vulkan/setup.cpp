@@ -214,7 +214,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   cmd_pool = detail::create_command_pool(*dev);
   cmd = detail::allocate_command_buffer(d, cmd_pool.get());
   fence = detail::create_fence(d);
-  queries = detail::create_timestamp_queries(*dev, kQueries);
+  queries = detail::create_timestamp_queries(*dev, kQueries + 2);
 
   // One-time upload through temporary staging buffers, one submission.
   std::vector<B> staging;

@@ -202,7 +202,8 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   std::uint32_t n_cbs = 0;
   // After every rebinding above (they drop recordings): the frame's first barrier
   // orders the embedding's writes before the FFD reads them.
-  if (const VkCommandBuffer e = m.pending_embedding()) cbs[n_cbs++] = e;
+  const VkCommandBuffer moved = m.pending_embedding();
+  if (moved) cbs[n_cbs++] = moved;
   if (aux) cbs[n_cbs++] = m.cmd;
   cbs[n_cbs++] = rec.cb;
   if (read_vertices) cbs[n_cbs++] = m.readback();
@@ -225,6 +226,13 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     tm.gpu_ffd = double(ts[1] - ts[0]) * p;
     for (std::uint32_t s = 0; s < ns; ++s) tm.gpu_steps.push_back(double(ts[2 + s] - ts[1 + s]) * p);
     tm.gpu_final = double(ts[2 + ns] - ts[1 + ns]) * p;
+    if (moved) {
+      std::uint64_t tm_move[2] = {};
+      detail::check(vkGetQueryPoolResults(m.d, m.queries.get(), kMoveQuery, 2, sizeof(tm_move), tm_move,
+                                          sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+                    "vkGetQueryPoolResults");
+      tm.gpu_move = double(tm_move[1] - tm_move[0]) * p;
+    }
   }
 
   // --- results -------------------------------------------------------------------------

@@ -105,6 +105,9 @@ struct FrameTimings {
   std::vector<double> gpu_steps;  ///< each axis step: coefficients, solve, vertex update (constraints
                                   ///< alone: each axis's vertex update)
   double gpu_final = 0;           ///< final volume measurement and copies
+  double gpu_move = 0;            ///< a move's device embedding that ran first in this frame's submission
+                                  ///< (embedding, cell sort, tiles; set_rest_vertices), not in gpu_total;
+                                  ///< 0 when no move waited for the frame
   double host_total = 0;          ///< deform() call, end to end (upload, submit, wait, read back)
   bool has_timestamps = false;    ///< false when the queue has no timestamp support
 };
