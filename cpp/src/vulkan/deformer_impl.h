@@ -48,7 +48,7 @@ inline double get_real(const void* src, size_t i, bool ff) {
 }
 
 constexpr int kMaxSteps = 3 * kMaxRounds;  // distinct axes (Deformer::plan checks) x rounds
-constexpr int ST_SIZE = kMaxSteps * ST_STEP_STRIDE;
+constexpr int ST_SIZE = ST_STEP + kMaxSteps * ST_STEP_STRIDE;
 constexpr int kTile = VPFFD_TILE;
 constexpr int kGroup = VPFFD_GROUP;
 constexpr std::uint32_t kMaxGroups = VPFFD_RED_STRIDE;

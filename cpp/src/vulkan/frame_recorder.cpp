@@ -58,9 +58,9 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
     v.count = static_cast<std::int32_t>(g_part);
     dispatch(cb, kVolume, red_groups(), v);
   };
-  // With device steps the first one measures the plain FFD's volume (not per part: with
-  // parts the pass runs, for the result's part volumes before the correction).
-  if (shape.measure && (!steps || K > 1)) volume(0);
+  // With device steps the first one measures the plain FFD's volume (with parts each
+  // part's, stats[ST_PART_BEFORE..]).
+  if (shape.measure && !steps) volume(0);
   timestamp(cb, 1);
   for (int step = 0; step < k && shape.mode != Shape::Plain; ++step) {
     Push s;
@@ -87,7 +87,7 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
     copy(cb, buf[bNrm], rb_N, 12 * nv);
   }
   if (steps) copy(cb, buf[bDelta], rb_delta, 24 * N);
-  if (steps) copy(cb, buf[bStats], rb_stats, 8 * ST_STEP_STRIDE * k);
+  if (steps) copy(cb, buf[bStats], rb_stats, 8 * (ST_STEP + ST_STEP_STRIDE * k));
   if (shape.measure) {
     const VkBufferCopy regions[2] = {{0, 0, 8 * red_groups()}, {8 * kMaxGroups, 8 * kMaxGroups, 8 * red_groups()}};
     vkCmdCopyBuffer(cb, buf[bRed].handle(), rb_red.handle(), 2, regions);

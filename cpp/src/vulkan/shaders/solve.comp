@@ -307,6 +307,8 @@ void solve_parts() {
     stats[st + 3] = s_a[0];
     stats[st + 4] = r_f(float(status));
     stats[st + 5] = detail;
+    if (pc.step == 0)
+      for (int k = 0; k < K; ++k) stats[ST_PART_BEFORE + k] = work[VOL + k];
   }
 }
 
