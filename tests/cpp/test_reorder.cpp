@@ -56,6 +56,21 @@ void expect_same_deformer(const Deformer& D, const Deformer& fresh, const RowMat
 
 }  // namespace
 
+TEST(Reorder, CountingSortIsTheStableSortForAnyThreadCount) {
+  // The threaded sort counts and places contiguous chunks of items: its order must be
+  // the one stable sort by key, for few keys, many keys and more keys than items.
+  std::mt19937 rng(3);
+  for (const Index n_keys : {Index(1), Index(7), Index(729), Index(40000), Index(300000)})
+    for (const Index n : {Index(1000), Index(100003), Index(250000)}) {
+      std::vector<std::int32_t> key(n);
+      for (auto& k : key) k = static_cast<std::int32_t>(rng() % n_keys);
+      std::vector<std::int32_t> want(n);
+      std::iota(want.begin(), want.end(), 0);
+      std::stable_sort(want.begin(), want.end(), [&](std::int32_t a, std::int32_t b) { return key[a] < key[b]; });
+      for (int threads : {1, 2, 3, 8}) ASSERT_EQ(counting_sort(key, n_keys, threads), want) << n << " " << n_keys;
+    }
+}
+
 TEST(Reorder, RelabelledFansComposeAndChainTheirRings) {
   std::mt19937 rng(3);
   const TriMesh m = icosphere(2);

@@ -18,13 +18,42 @@
 namespace vpffd {
 
 /// Stable counting sort of items by small integer keys in [0, n_keys).
+/// With threads, contiguous chunks of items count and place their own items (a stable
+/// sort has one result, so it is the same for any thread count); the chunks' counts
+/// take chunks x n_keys integers, so there are only as many as that stays below the
+/// item count.
 /// @returns order: position -> item
-inline std::vector<std::int32_t> counting_sort(const std::vector<std::int32_t>& key, Index n_keys) {
-  std::vector<Index> start(n_keys + 1, 0);
-  for (std::int32_t k : key) ++start[k + 1];
-  for (Index c = 0; c < n_keys; ++c) start[c + 1] += start[c];
+inline std::vector<std::int32_t> counting_sort(const std::vector<std::int32_t>& key, Index n_keys, int threads = 1) {
+  const Index n = static_cast<Index>(key.size());
+  const int chunks = n < kParallelMin ? 1
+                                      : static_cast<int>(std::clamp<Index>(
+                                            std::min<Index>(resolve_threads(threads), n / (n_keys + 1)), 1, 64));
   std::vector<std::int32_t> order(key.size());
-  for (size_t i = 0; i < key.size(); ++i) order[start[key[i]]++] = static_cast<std::int32_t>(i);
+  if (chunks == 1) {
+    std::vector<Index> start(n_keys + 1, 0);
+    for (std::int32_t k : key) ++start[k + 1];
+    for (Index c = 0; c < n_keys; ++c) start[c + 1] += start[c];
+    for (Index i = 0; i < n; ++i) order[start[key[i]]++] = static_cast<std::int32_t>(i);
+    return order;
+  }
+  // next[c * n_keys + k]: where chunk c puts its next item of key k.
+  std::vector<Index> next(static_cast<size_t>(chunks) * n_keys, 0);
+  parallel_chunks(n, chunks, chunks, [&](int c, Index b, Index e) {
+    Index* count = next.data() + static_cast<size_t>(c) * n_keys;
+    for (Index i = b; i < e; ++i) ++count[key[i]];
+  });
+  Index at = 0;
+  for (Index k = 0; k < n_keys; ++k)
+    for (int c = 0; c < chunks; ++c) {
+      Index& x = next[static_cast<size_t>(c) * n_keys + k];
+      const Index count = x;
+      x = at;
+      at += count;
+    }
+  parallel_chunks(n, chunks, chunks, [&](int c, Index b, Index e) {
+    Index* pos = next.data() + static_cast<size_t>(c) * n_keys;
+    for (Index i = b; i < e; ++i) order[pos[key[i]]++] = static_cast<std::int32_t>(i);
+  });
   return order;
 }
 
@@ -39,7 +68,7 @@ inline std::vector<std::int32_t> cell_order(const BasisTables& T, const Embeddin
   parallel_range(n, threads, [&](Index b, Index e) {
     for (Index i = b; i < e; ++i) cell[held ? Index((*held)[i]) : i] = detail::cell_index(T, E, i);
   });
-  return counting_sort(cell, Index(T.dims[0]) * T.dims[1] * T.dims[2]);
+  return counting_sort(cell, Index(T.dims[0]) * T.dims[1] * T.dims[2], threads);
 }
 
 /// The inverse permutation: original index -> processing position.

@@ -302,7 +302,7 @@ class Deformer {
       // coefficients are then the scatter of one range of vertices.
       std::vector<std::int32_t> key(nv);
       for (Index i = 0; i < nv; ++i) key[i] = parts_.vertex_part[order[i]];
-      const std::vector<std::int32_t> by_part = counting_sort(key, K);
+      const std::vector<std::int32_t> by_part = counting_sort(key, K, threads);
       std::vector<std::int32_t> sorted(nv);
       for (Index i = 0; i < nv; ++i) sorted[i] = order[by_part[i]];
       order.swap(sorted);
