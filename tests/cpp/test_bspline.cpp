@@ -165,6 +165,10 @@ TEST(BSpline, SpanLocatorLocateIsTheSearchUpToRounding) {
           continue;
         }
         const double g = (u - a) / h;
+        // The knots the library makes take the arithmetic: exactly g's floor and rest.
+        const double f = std::clamp(std::floor((u - a) * locate.steps_per_unit), 0.0, double(nn - 1 - d));
+        ASSERT_EQ(s, d + static_cast<int>(f));
+        ASSERT_EQ(tau, (u - a) * locate.steps_per_unit - f);
         const double bound = 8 * eps * (std::abs(g) + std::max(std::abs(a), std::abs(b)) / h + 1);
         ASSERT_LE(std::abs(s - s0), 1) << "d " << d << " u " << u;
         ASSERT_NEAR(tau + (s - s0), tau0, bound) << "d " << d << " n " << nn << " u " << u << " span " << s << " vs "
@@ -172,6 +176,19 @@ TEST(BSpline, SpanLocatorLocateIsTheSearchUpToRounding) {
       }
     }
   EXPECT_GT(checked, 10000);
+  // A knot a hair off the grid (1e-11 of a span: far beyond rounding) is another
+  // spline: the search evaluates it, bit for bit.
+  for (int d = 1; d <= 4; ++d) {
+    std::vector<double> t = clamped_uniform_knots(12, d, -1.0, 3.0);
+    t[d + 2] += 1e-11 * (4.0 / (12 - d));
+    const SpanLocator locate(t, 12, d);
+    for (double u : {t[d + 2], std::nextafter(t[d + 2], -2.0), 0.3, -0.999, 2.5}) {
+      double tau = 0;
+      const int s = locate.locate(u, tau);
+      ASSERT_EQ(s, find_span(t, 12, d, u)) << u;
+      ASSERT_EQ(tau, locate.local(u, s)) << u;
+    }
+  }
 }
 
 TEST(BSpline, EmbeddingInAGivenOrderIsTheEmbeddingPermuted) {

@@ -58,8 +58,8 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
     v.count = static_cast<std::int32_t>(g_part);
     dispatch(cb, kVolume, red_groups(), v);
   };
-  // With device steps the first one measures the plain FFD's volume (with parts each
-  // part's, stats[ST_PART_BEFORE..]).
+  // With device steps the first one measures the plain FFD's volume (each part's,
+  // stats[ST_PART_BEFORE..]).
   if (shape.measure && !steps) volume(0);
   timestamp(cb, 1);
   for (int step = 0; step < k && shape.mode != Shape::Plain; ++step) {

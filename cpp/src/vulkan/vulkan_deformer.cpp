@@ -303,12 +303,10 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
       }
     before *= s3;
     after *= s3;
-    // Device steps have no volume pass before them: the first step's solve keeps the
-    // volume (each part's, with parts) from its coefficient pass.
-    if (shape.mode == Shape::DeviceSteps && k > 0) {
-      if (K == 1) before[0] = stat(0, 0) * s3;
-      for (int p = 0; p < K && K > 1; ++p) before[p] = get_real(m.rb_stats.mapped(), ST_PART_BEFORE + p, m.ff) * s3;
-    }
+    // Device steps have no volume pass before them: the first step's solve leaves each
+    // part's volume from its coefficient pass.
+    if (shape.mode == Shape::DeviceSteps && k > 0)
+      for (int p = 0; p < K; ++p) before[p] = get_real(m.rb_stats.mapped(), ST_PART_BEFORE + p, m.ff) * s3;
     if (shape.mode == Shape::Plain) after = before;
     res.volume_before = before.sum();
     res.volume = after.sum();

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "vpffd/core/check.h"
@@ -111,9 +112,14 @@ struct SpanLocator {
         inv_length(knots.size(), 0.0) {
     for (size_t s = 0; s + 1 < knots.size(); ++s)
       if (knots[s + 1] > knots[s]) inv_length[s] = 1.0 / (knots[s + 1] - knots[s]);
+    // Uniform: every knot of the domain is the grid point lo + (s - d) h up to the
+    // rounding of computing either (clamped_uniform_knots, periodic_uniform_knots: a few
+    // eps max(|lo|, |hi|)). A knot further off is a different spline, and the search
+    // below is what evaluates it.
+    const double slack = 8 * std::numeric_limits<double>::epsilon() * std::max(std::abs(lo), std::abs(hi));
     uniform_ = true;
     for (int s = d; s <= n; ++s)
-      uniform_ = uniform_ && std::abs(t[s] - (lo + (s - d) / steps_per_unit)) <= 1e-9 / steps_per_unit;
+      uniform_ = uniform_ && std::abs(t[s] - (lo + (s - d) / steps_per_unit)) <= slack;
   }
 
   /// The local parameter of u in span s: (u - t_s) / (t_{s+1} - t_s), as a multiply.
@@ -147,7 +153,7 @@ struct SpanLocator {
   }
 
  private:
-  bool uniform_ = false;  ///< knots t_d..t_n evenly spaced, to 1e-9 of a span
+  bool uniform_ = false;  ///< knots t_d..t_n on the uniform grid, to rounding
 
   int end_span(double u) const {
     int s;

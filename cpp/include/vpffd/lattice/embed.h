@@ -74,21 +74,22 @@ inline void embed_into(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X
   }
   // Per-axis constants in locals: read through L inside the loop they would be
   // reloaded after every store (the stores could alias them, as far as the compiler knows).
+  const ParameterMap to_parameter(L);  // u = lo + (x - box_min) k, axis by axis
   double in_lo[3], in_hi[3], dom_lo[3], dom_hi[3], far_lo[3], far_hi[3], box_lo[3], scale[3];
   for (int a = 0; a < 3; ++a) {
     // Rounding in the box computation must not throw out points on its faces.
     const double tol = 1e-12 * (L.box_max[a] - L.box_min[a]);
     in_lo[a] = L.box_min[a] - tol;
     in_hi[a] = L.box_max[a] + tol;
-    dom_lo[a] = L.domain_lo(a);
+    dom_lo[a] = to_parameter.lo[a];
     dom_hi[a] = L.domain_hi(a);
     // Extrapolated polynomial pieces grow as distance^degree: a thousand box
     // extents away they are no deformation anyone wants, and further away they
     // overflow. Such points are refused with the non-finite ones.
     far_lo[a] = dom_lo[a] - 1e3 * (dom_hi[a] - dom_lo[a]);
     far_hi[a] = dom_hi[a] + 1e3 * (dom_hi[a] - dom_lo[a]);
-    box_lo[a] = L.box_min[a];
-    scale[a] = (dom_hi[a] - dom_lo[a]) / (L.box_max[a] - L.box_min[a]);  // ParameterMap's
+    box_lo[a] = to_parameter.box_min[a];
+    scale[a] = to_parameter.k[a];
   }
   const SpanLocator locate[3] = {{L.knots[0], L.dim(0), L.degree[0]},
                                  {L.knots[1], L.dim(1), L.degree[1]},

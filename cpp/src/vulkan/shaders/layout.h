@@ -87,9 +87,10 @@ const int PT_FACE_START = 0;
 // The most parts the device solve takes (an LDL^T of the K x K Schur complement by one
 // invocation, solve.comp).
 const int MAX_DEVICE_PARTS = 64;
-// stats[]: reals. With parts, first each part's volume before the correction (the first
-// step's solve has them from the coefficient pass: no separate volume pass); then per
-// step: volume_before, share, sum_squares, max_offset, status, detail.
+// stats[]: reals. First each part's volume before the correction (one without parts),
+// left by the first step's solve from its coefficient pass (device steps run no volume
+// pass before them); then per step: volume_before, share, sum_squares, max_offset,
+// status, detail.
 const int ST_PART_BEFORE = 0;
 const int ST_STEP = MAX_DEVICE_PARTS;
 const int ST_STEP_STRIDE = 8;

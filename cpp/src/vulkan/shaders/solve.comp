@@ -447,5 +447,6 @@ void main() {
     stats[st + 3] = s_a[0];
     stats[st + 4] = r_f(float(status));
     stats[st + 5] = detail;
+    if (pc.step == 0) stats[ST_PART_BEFORE] = vol;
   }
 }
