@@ -34,6 +34,16 @@ def points(a, name: str, rows: int | None = None, allow_empty: bool = False) -> 
     return out
 
 
+def bounds(a: np.ndarray) -> tuple:
+    """(lo, hi), each (3,): the columns' minima and maxima of an (n, 3) array, n > 0.
+
+    Column by column: numpy's ``a.min(axis=0)`` reduces an (n, 3) row-major array
+    about 7x slower (435,545 rows: 17 ms against 2.4 for the three columns)."""
+    lo = np.array([a[:, c].min() for c in range(3)])
+    hi = np.array([a[:, c].max() for c in range(3)])
+    return lo, hi
+
+
 def faces(a, n_vertices: int, name: str = "faces") -> np.ndarray:
     """(m, 3) int32 C-contiguous copy of triangle indices, range-checked."""
     if a is None:

@@ -87,7 +87,7 @@ class Camera:
             raise InvalidInputError(f"Camera.framing: margin must be a positive number, got {margin}")
         if pts.shape[0] == 0 or not np.isfinite(pts).all():
             raise InvalidInputError("Camera.framing: no finite points to frame")
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        lo, hi = _arrays.bounds(pts)
         centre = 0.5 * (lo + hi)
         radius = 0.5 * float(np.linalg.norm(hi - lo)) or 1.0
         d = _arrays.vector3(direction, "Camera.framing: direction")

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from . import _core
+from . import _arrays, _core
 from .camera import Camera, _size
 from .colormap import FOLD_COLOR, colormap, volume_change_colors, volume_change_limit
 from .mesh import Mesh
@@ -60,7 +60,7 @@ def guess_up_axis(mesh, path=None) -> tuple:
     n = np.cross(b - a, c - a)  # twice the area, along the normal
     area2 = np.linalg.norm(n, axis=1)
     total = float(area2.sum())
-    lo, hi = V.min(axis=0), V.max(axis=0)
+    lo, hi = _arrays.bounds(V)
     ext = hi - lo
     scores = []
     if total > 0 and ext.max() > 0:

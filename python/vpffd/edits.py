@@ -16,7 +16,11 @@ def _prep(points, center):
         raise _core.InvalidInputError(f"control points: expected shape (..., 3), e.g. (nu, nv, nw, 3) or (N, 3), "
                                       f"got {shape}")
     flat = _arrays.points(P.reshape(-1, 3) if P.ndim >= 2 else P, "control points")
-    c = 0.5 * (flat.min(axis=0) + flat.max(axis=0)) if center is None else _arrays.vector3(center, "center")
+    if center is None:
+        lo, hi = _arrays.bounds(flat)
+        c = 0.5 * (lo + hi)
+    else:
+        c = _arrays.vector3(center, "center")
     return flat, shape, c
 
 

@@ -227,7 +227,7 @@ class Lattice:
             points = points.vertices
         P = _arrays.points(points, "Lattice.around: points")
         padding = _arrays.positive(padding, "padding", "Lattice.around", allow_zero=True)
-        lo, hi = P.min(axis=0), P.max(axis=0)
+        lo, hi = _arrays.bounds(P)
         ext = hi - lo
         for a in range(3):
             if not ext[a] > 0:

@@ -32,13 +32,14 @@ class Mesh:
         F.setflags(write=False)
         self._V, self._F = V, F
         self._edges = None
+        self._box = None
 
     def _with_vertices(self, V: np.ndarray) -> "Mesh":
         """The same faces with new vertices ``V``: a checked (#V, 3) float64 array that
         this Mesh takes over (the faces and their edge report are shared, not checked again)."""
         m = Mesh.__new__(Mesh)
         V.setflags(write=False)
-        m._V, m._F, m._edges = V, self._F, self._edges
+        m._V, m._F, m._edges, m._box = V, self._F, self._edges, None
         return m
 
     @classmethod
@@ -74,8 +75,11 @@ class Mesh:
 
     @property
     def bounds(self) -> np.ndarray:
-        """(2, 3): minimum and maximum corner of the bounding box."""
-        return np.stack([self._V.min(axis=0), self._V.max(axis=0)])
+        """(2, 3), read-only: minimum and maximum corner of the bounding box."""
+        if self._box is None:  # the vertices are read-only: computed once
+            self._box = np.stack(_arrays.bounds(self._V))
+            self._box.setflags(write=False)
+        return self._box
 
     def edge_report(self) -> dict:
         """Counts of edges, boundary edges, non-manifold edges and edges used twice
@@ -102,7 +106,7 @@ class Mesh:
         # costly part) is computed once; require_closed only runs to word the error.
         if not self.is_closed:
             _core.require_closed(self._F, "Mesh.volume")
-        centre = 0.5 * (self._V.min(axis=0) + self._V.max(axis=0))
+        centre = self.bounds.mean(axis=0)
         return _core.signed_volume(self._V, self._F, centre, False)  # arrays checked in __init__
 
     def check(self):

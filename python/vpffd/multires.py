@@ -55,7 +55,8 @@ def _read_only(a) -> np.ndarray:
 def _volume(V, F, closed: bool) -> float:
     if not closed:
         return float("nan")
-    return float(_core.signed_volume(V, F, 0.5 * (V.min(axis=0) + V.max(axis=0))))
+    lo, hi = _arrays.bounds(V)
+    return float(_core.signed_volume(V, F, 0.5 * (lo + hi)))
 
 
 def _relative(v, ref) -> float:

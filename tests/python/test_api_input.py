@@ -22,6 +22,22 @@ def test_caller_arrays_untouched(sphere, lat):
     assert not m.vertices.flags.writeable
 
 
+def test_bounds_are_numpys_and_read_only(sphere):
+    from vpffd import _arrays
+    rng = np.random.default_rng(3)
+    for V in (rng.normal(size=(1, 3)), rng.normal(size=(1001, 3)) * [1e-300, 1.0, 1e300], sphere.vertices):
+        lo, hi = _arrays.bounds(V)
+        assert np.array_equal(lo, V.min(axis=0)) and np.array_equal(hi, V.max(axis=0))
+    m = vpffd.Mesh(sphere.vertices, sphere.faces)
+    box = m.bounds
+    np.testing.assert_array_equal(box, [sphere.vertices.min(axis=0), sphere.vertices.max(axis=0)])
+    assert box.shape == (2, 3) and not box.flags.writeable
+    # A mesh with new vertices has its own box (the cached one is not carried over).
+    moved = m._with_vertices(sphere.vertices + [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(moved.bounds, box + [1.0, 2.0, 3.0])
+    assert moved.volume == pytest.approx(m.volume, rel=1e-13)
+
+
 def test_bad_input(sphere, lat):
     V, F = sphere.vertices, sphere.faces
     with pytest.raises(InvalidInputError, match=r"shape \(n, 3\)"):
