@@ -5,7 +5,8 @@
 
 Prints a markdown table (medians of --repeats runs, one process, one run), then
 where an xyz frame's time goes (FFD, coefficient passes, solves, gathers, volume,
-reordering: the frame's own per-pass clocks, medians) with the load average, and
+reordering: the frame's own per-pass clocks, medians) with the load average, what
+the options normals=True, weights="auto" and on_fold="warn" add to a frame, and
 writes bench/results/cpu_<host>.json. For the side-by-side comparison with
 Blender's Lattice modifier see bench_peers.py. The meshes of ../shared/data/meshes are
 used when present; the icospheres are generated in code.

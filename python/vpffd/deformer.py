@@ -127,6 +127,7 @@ class Deformer:
         self._core = self._vk.cpu if self._vk is not None else _core.Deformer(
             self.mesh.vertices, self.mesh.faces, lattice._spec, outside, self._threads, labels)
         self._last_frame = None  # Vulkan: (control points, options) of the last frame kept (see on_fold)
+        self._auto_weight_rest = None  # local_weights: the rest mesh's cone volumes, for weights="auto"
         if labels is not None:
             _check_memory(lattice.n_control_points, f"Deformer with {self._core.n_parts} parts",
                           _FRAME_BYTES_PER_CONTROL_POINT + _FRAME_BYTES_PER_CONTROL_POINT_AND_PART * self._core.n_parts,

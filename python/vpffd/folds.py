@@ -198,8 +198,7 @@ def check_folds(lattice, control_points=None, depth: int = DEFAULT_DEPTH, thread
 def vertex_det(deformer, control_points=None) -> np.ndarray:
     """(V,) det J of the FFD at the rest vertices of ``deformer.mesh``
     (deformed volume per rest volume; < 0 where the mesh is turned inside out)."""
-    J = deformer.jacobians(control_points)
-    return np.linalg.det(J)
+    return deformer.jacobian_determinants(control_points)
 
 
 def vertex_folds(deformer, control_points=None, report=None, depth: int = DEFAULT_DEPTH):
@@ -227,13 +226,15 @@ def check_deformer_folds(deformer, control_points=None, depth: int = DEFAULT_DEP
     import time
     t0 = time.perf_counter()
     rep = check_folds(deformer.lattice, control_points, depth, threads)
-    J = deformer.jacobians(control_points)
-    det = np.linalg.det(J)
+    det = deformer.jacobian_determinants(control_points)
     v = int(np.argmin(det))
     rep.vertex_min_det = float(det[v])
     rep.vertex_argmin = v
-    hadamard = float(np.prod(np.linalg.norm(J[v], axis=0)))
-    if not rep.folded and not rep.certified and det[v] < -_VERTEX_DET_TOLERANCE * hadamard:
+    # The Hadamard bound needs J at that vertex; the (V, 3, 3) Jacobians are only
+    # computed when a negative det J can decide.
+    undecided = not rep.folded and not rep.certified and det[v] < 0
+    hadamard = float(np.prod(np.linalg.norm(deformer.jacobians(control_points)[v], axis=0))) if undecided else 0.0
+    if undecided and det[v] < -_VERTEX_DET_TOLERANCE * hadamard:
         # Proven negative at a rest vertex (a certified lattice cannot get here).
         rep.folded = True
         rep.witness = deformer.mesh.vertices[v].copy()

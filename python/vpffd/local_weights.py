@@ -25,32 +25,40 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _arrays, _core
+
 AUTO_EPS = 1e-6
+
+
+def _rest_cones(deformer):
+    """(F,) cone volumes of the rest mesh from the lattice centre and the sum of
+    their magnitudes, kept on the deformer for its current rest mesh."""
+    cached = deformer._auto_weight_rest
+    if cached is None or cached[0] is not deformer.mesh:
+        m = deformer.mesh
+        cones = _core.cone_volumes(m.vertices, m.faces, deformer.lattice.center, False)
+        cached = (m, cones, float(np.abs(cones).sum()))
+        deformer._auto_weight_rest = cached
+    return cached[1], cached[2]
 
 
 def face_volume_changes(deformer, deformed_vertices) -> np.ndarray:
     """(F,) |V_f(deformed) - V_f(rest)| of the cones from the lattice centre."""
-    c = deformer.lattice.center
-    F = deformer.mesh.faces
-
-    def cones(X):
-        a, b, d = (X[F[:, i]] - c for i in range(3))
-        return np.einsum("ij,ij->i", a, np.cross(b, d)) / 6.0
-
-    return np.abs(cones(deformed_vertices) - cones(deformer.mesh.vertices))
+    X = _arrays.points(deformed_vertices, "face_volume_changes: deformed_vertices", rows=deformer.mesh.n_vertices)
+    deformed = _core.cone_volumes(X, deformer.mesh.faces, deformer.lattice.center, True)
+    return np.abs(deformed - _rest_cones(deformer)[0])
 
 
 def local_volume_change(deformer, control_points=None) -> np.ndarray:
     """(N,) L_c: each control point's share of the volume change of the plain FFD
     over its support (formula in the module docstring), in volume units."""
-    dV = face_volume_changes(deformer, deformer.ffd(control_points))
     F = deformer.mesh.faces
-    per_vertex = np.zeros(deformer.mesh.n_vertices)
-    for i in range(3):
-        np.add.at(per_vertex, F[:, i], dV / 3.0)
-    # The support of each distinct control point (its periodic copies' included).
-    B = deformer.lattice._fold_columns(deformer._extended_basis())
-    return np.asarray(B.T @ per_vertex).reshape(-1)
+    X = deformer.ffd(control_points)  # the core's output: checked already
+    dV = np.abs(_core.cone_volumes(X, F, deformer.lattice.center, False) - _rest_cones(deformer)[0])
+    per_vertex = np.bincount(F.reshape(-1), weights=np.repeat(dV / 3.0, 3), minlength=deformer.mesh.n_vertices)
+    # B^T per_vertex over the distinct control points (a periodic point's copies
+    # summed), by the core's scatter: no (V, N) basis matrix.
+    return deformer._d.basis_transpose(per_vertex, deformer._threads)
 
 
 def auto_weights(deformer, control_points=None):
@@ -60,9 +68,7 @@ def auto_weights(deformer, control_points=None):
     top = float(L.max()) if L.size else 0.0
     # Rounding alone changes a face's cone volume by ~1e-16 of it; below 1e-12 of
     # the total there is no edit to follow.
-    c = deformer.lattice.center
-    X, F = deformer.mesh.vertices, deformer.mesh.faces
-    scale = float(np.abs(np.einsum("ij,ij->i", X[F[:, 0]] - c, np.cross(X[F[:, 1]] - c, X[F[:, 2]] - c))).sum()) / 6
+    scale = _rest_cones(deformer)[1]
     if not (np.isfinite(top) and top > 1e-12 * scale):
         return None
     r = L / top

@@ -33,13 +33,14 @@ class Mesh:
         self._V, self._F = V, F
         self._edges = None
         self._box = None
+        self._normals = None
 
     def _with_vertices(self, V: np.ndarray) -> "Mesh":
         """The same faces with new vertices ``V``: a checked (#V, 3) float64 array that
         this Mesh takes over (the faces and their edge report are shared, not checked again)."""
         m = Mesh.__new__(Mesh)
         V.setflags(write=False)
-        m._V, m._F, m._edges, m._box = V, self._F, self._edges, None
+        m._V, m._F, m._edges, m._box, m._normals = V, self._F, self._edges, None, None
         return m
 
     @classmethod
@@ -80,6 +81,14 @@ class Mesh:
             self._box = np.stack(_arrays.bounds(self._V))
             self._box.setflags(write=False)
         return self._box
+
+    def _vertex_normals(self) -> np.ndarray:
+        """vertex_normals of this mesh, computed once (read-only): the rest normals
+        every exact deformed-normals frame starts from."""
+        if self._normals is None:
+            self._normals = _core.vertex_normals(self._V, self._F)
+            self._normals.setflags(write=False)
+        return self._normals
 
     def edge_report(self) -> dict:
         """Counts of edges, boundary edges, non-manifold edges and edges used twice

@@ -50,11 +50,11 @@ def deformed_normals(deformer, control_points=None, method: str = "exact", rest_
     if not isinstance(deformer, Deformer):
         raise TypeError(f"deformed_normals: expected a vpffd.Deformer, got {type(deformer).__name__}")
     m = deformer.mesh
-    N0 = vertex_normals(m) if rest_normals is None else _arrays.points(
+    N0 = m._vertex_normals() if rest_normals is None else _arrays.points(
         rest_normals, "deformed_normals: rest_normals", rows=m.n_vertices)
     if method == "exact":
-        J = deformer.jacobians(control_points).reshape(-1, 9)
-        return _core.deformed_normals_exact(np.ascontiguousarray(J), N0)
+        # The Jacobians in blocks inside the core, never as a (V, 3, 3) array.
+        return deformer._d.deformed_normals(deformer._P(control_points), N0, deformer._threads)
     if method == "tangent":
         lat = deformer.lattice
         if eps is None:

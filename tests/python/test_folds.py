@@ -196,14 +196,19 @@ def test_deformer_check_folds_adds_vertex_det(cube_case):
     d = vpffd.Deformer(cube, lat, backend="serial")
     P = swapped_slabs(lat)
     rep = d.check_folds(P)
-    det = np.linalg.det(d.jacobians(P))
-    assert rep.vertex_min_det == det.min() and rep.vertex_argmin == int(np.argmin(det))
+    J = d.jacobians(P)
+    det = np.linalg.det(J)
+    # The core expands det J by cofactors, numpy factors J: the two differ by rounding,
+    # a few eps times the Hadamard bound prod |column| (1e-13 of it is far above that).
+    bound = 1e-13 * np.prod(np.linalg.norm(J, axis=1), axis=1)
+    assert abs(rep.vertex_min_det - det.min()) <= bound.max()
+    assert abs(det[rep.vertex_argmin] - det.min()) <= 2 * bound.max()
     assert rep.folded
     # spec (e): vertices with det J < 0 lie in folded or unknown cells
     assert (rep.status_at(cube.vertices[det < -1e-9]) != folds.CERTIFIED).all()
     det_v, status_v = folds.vertex_folds(d, P, rep)
     assert det_v.shape == (cube.n_vertices,) and status_v.shape == (cube.n_vertices,)
-    assert np.array_equal(det_v, det)
+    assert (np.abs(det_v - det) <= bound).all()
     assert "vertex_min_det" in repr(rep) and "FOLDED" in rep.verdict()
     ok = d.check_folds()
     assert ok.certified and ok.vertex_min_det == pytest.approx(1.0, abs=1e-9)

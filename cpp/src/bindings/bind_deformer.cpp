@@ -90,6 +90,20 @@ void bind_deformer(py::module_& m) {
           },
           py::arg("control_points"), py::arg("threads") = 0)
       .def(
+          "deformed_normals",
+          [](const Deformer& d, RefV P, RefV N0, int threads) {
+            py::gil_scoped_release release;
+            return d.deformed_normals(P, N0, threads);
+          },
+          py::arg("control_points"), py::arg("rest_normals"), py::arg("threads") = 0)
+      .def(
+          "basis_transpose",
+          [](const Deformer& d, const Eigen::Ref<const VectorXd>& w, int threads) {
+            py::gil_scoped_release release;
+            return d.basis_transpose(w, threads);
+          },
+          py::arg("values"), py::arg("threads") = 0)
+      .def(
           "jacobian_determinants",
           [](const Deformer& d, RefV P, int threads) {
             py::gil_scoped_release release;

@@ -33,6 +33,14 @@ void bind_mesh(py::module_& m) {
         return signed_volume(V, F, origin);
       },
       py::arg("vertices"), py::arg("faces"), py::arg("origin") = Vector3d::Zero(), py::arg("check") = true);
+  m.def(
+      "cone_volumes",
+      [](RefV V, RefF F, Vector3d origin, bool check) {
+        if (check) validate_mesh(V, F, "cone_volumes");  // as signed_volume's check
+        py::gil_scoped_release release;
+        return cone_volumes(V, F, origin);
+      },
+      py::arg("vertices"), py::arg("faces"), py::arg("origin"), py::arg("check") = true);
   m.def("require_closed", [](RefF F, const char* where) {
     VPFFD_CHECK(F.rows() == 0 || F.minCoeff() >= 0, where, ": negative vertex index");
     require_closed(edge_report(F), where);

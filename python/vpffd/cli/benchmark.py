@@ -86,8 +86,25 @@ def bench_mesh(name: str, mesh: Mesh, shape=(10, 10, 10), degree=3, repeats=7, w
                 volume_error=r.volume_error, bytes_per_vertex=d.bytes_per_vertex,
                 csr_nnz=nnz if method == "csr" else None,
                 csr_build_s=build_s if method == "csr" and backend == threads[0][0] else None,
-                breakdown_ms=frame_breakdown(d, P, repeats, method=method)))
+                breakdown_ms=frame_breakdown(d, P, repeats, method=method),
+                options_ms=option_costs(d, P, repeats) if method == "traversal" else None))
     return rows
+
+
+# What the frame options of Deformer.deform cost beside the plain xyz frame.
+OPTIONS = (("normals", dict(normals=True)), ("auto weights", dict(weights="auto")),
+           ("fold check", dict(on_fold="warn")))
+
+
+def option_costs(d: Deformer, P, repeats: int) -> dict:
+    """Median ms of the xyz frame ("frame") and of the same frame with each of OPTIONS."""
+    import warnings
+    out = {"frame": median_ms(lambda: d.deform(P), repeats)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the twist may fold the corrected lattice: the check is what is timed
+        for name, kw in OPTIONS:
+            out[name] = median_ms(lambda: d.deform(P, **kw), repeats)
+    return out
 
 
 def default_meshes(include_shared: bool = True) -> list:
@@ -127,6 +144,21 @@ def format_breakdown(rows: list) -> str:
     return "\n".join(lines)
 
 
+def format_options(rows: list) -> str:
+    """What each frame option adds to the xyz frame (ms, and as a fraction of the frame)."""
+    names = [n for n, _ in OPTIONS]
+    lines = ["| mesh | threads | xyz frame ms | " + " | ".join(f"+ {n} ms" for n in names) + " |",
+             "|" + "---|" * (len(names) + 3)]
+    for r in rows:
+        o = r.get("options_ms")
+        if not o:
+            continue
+        lines.append(f"| {r['mesh']} | {r['threads']} | {o['frame']:.2f} | " +
+                     " | ".join(f"{o[n] - o['frame']:.2f} ({(o[n] - o['frame']) / o['frame']:.2f}x)" for n in names) +
+                     " |")
+    return "\n".join(lines)
+
+
 def run_benchmark(include_shared: bool = True, repeats: int = 7, with_csr: bool = True, out: str | None = None,
                   shape=(10, 10, 10), degree: int = 3, progress=None) -> list:
     """Runs the benchmark, prints the markdown table, optionally writes JSON to ``out``."""
@@ -142,6 +174,9 @@ def run_benchmark(include_shared: bool = True, repeats: int = 7, with_csr: bool 
     print(format_table(rows))
     print(f"\nWhere an xyz frame goes (ms, medians; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())})")
     print(format_breakdown(rows))
+    print("\nWhat Deformer.deform's options add to the xyz frame (ms over it, medians; normals=True, "
+          "weights=\"auto\", on_fold=\"warn\")")
+    print(format_options(rows))
     if out:
         Path(out).parent.mkdir(parents=True, exist_ok=True)
         Path(out).write_text(json.dumps(dict(machine=platform.uname()._asdict(), cores=os.cpu_count(),

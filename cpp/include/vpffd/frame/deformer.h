@@ -28,6 +28,7 @@
 #include "vpffd/ffd/basis_matrix.h"
 #include "vpffd/ffd/cell_runs.h"
 #include "vpffd/ffd/kernels.h"
+#include "vpffd/ffd/normals.h"
 #include "vpffd/ffd/points.h"
 #include "vpffd/ffd/reorder.h"
 #include "vpffd/ffd/vertex_order.h"
@@ -220,6 +221,67 @@ class Deformer {
       }
     });
     return det;
+  }
+
+  /// Exact unit normals of the deformed surface, cof(J_v) n_v normalised per vertex
+  /// (deformed_normals_exact of jacobians(P) and N0), without the #V x 9 Jacobians:
+  /// blocks of them in a small buffer.
+  /// @param P   N x 3 control points
+  /// @param N0  #V x 3 rest normals (caller order; need not be unit)
+  /// @returns #V x 3 unit normals (zero where cof(J) n vanishes)
+  RowMatrixX3d deformed_normals(const Eigen::Ref<const RowMatrixX3d>& P, const Eigen::Ref<const RowMatrixX3d>& N0,
+                                int threads = 0) const {
+    check_control_points(P, "deformed_normals");
+    VPFFD_CHECK(N0.rows() == n_vertices(), "deformed_normals: ", N0.rows(), " rest normals for ", n_vertices(),
+                " vertices");
+    VPFFD_CHECK(N0.allFinite(), "deformed_normals: the rest normals contain NaN or Inf");
+    const PointColumns Q(expand_points(ties_, P));
+    const Vector3d s = parameter_scale(lattice_);
+    int twist = -1;  // a twist seam mirrors two columns of J at wrapped points (unmirror_jacobians)
+    for (int a = 0; a < 3; ++a)
+      if (lattice_.seam[a] == Seam::Twist) twist = a;
+    RowMatrixX3d N(n_vertices(), 3);
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      constexpr Index kBlock = 256;
+      std::vector<double> J(9 * kBlock);
+      for (Index c = b; c < e; c += kBlock) {
+        const Index ce = std::min(e, c + kBlock);
+        detail::jacobian_kernel(tables_, embedding_, Q.x.data(), Q.y.data(), Q.z.data(), s, J.data(), c, ce, c);
+        for (Index i = c; i < ce; ++i) {
+          double* j = J.data() + 9 * (i - c);
+          const Index v = order_[i];
+          bool flip = false;
+          if (twist >= 0) wrap_point(lattice_, V_.row(v).transpose(), &flip);
+          if (flip)
+            for (int r = 0; r < 3; ++r)
+              for (int k = 0; k < 3; ++k)
+                if (k != twist) j[3 * r + k] = -j[3 * r + k];
+          const Vector3d c0(j[0], j[3], j[6]), c1(j[1], j[4], j[7]), c2(j[2], j[5], j[8]);
+          const Vector3d n = N0(v, 0) * c1.cross(c2) + N0(v, 1) * c2.cross(c0) + N0(v, 2) * c0.cross(c1);
+          N.row(v) = detail::normalized_or_zero(n).transpose();
+        }
+      }
+    });
+    return N;
+  }
+
+  /// B^T w: sum_v B_c(u_v) w_v for each distinct control point c (the copies of a
+  /// periodic point summed), the transpose of ffd(), without the #V x N matrix: the
+  /// frames' scatter, in fixed chunks summed in order (the same bits for any thread count).
+  /// @param w  #V values per vertex (caller order)
+  /// @returns n_control_points() sums
+  VectorXd basis_transpose(const Eigen::Ref<const VectorXd>& w, int threads = 0) const {
+    VPFFD_CHECK(w.size() == n_vertices(), "basis_transpose: ", w.size(), " values for ", n_vertices(), " vertices");
+    VPFFD_CHECK(w.allFinite(), "basis_transpose: the values contain NaN or Inf");
+    const Index nv = n_vertices();
+    const Index N = Index(tables_.dims[0]) * tables_.dims[1] * tables_.dims[2];
+    const int chunks = detail::scatter_chunks(nv, N);
+    std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
+    parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
+      detail::scatter(tables_, embedding_, &runs_, [&](Index i) { return w[order_[i]]; },
+                      buf.data() + static_cast<size_t>(c) * N, b, e);
+    });
+    return fold(ties_, detail::sum_chunks(buf, chunks, N, threads));
   }
 
   /// #V x N vertex basis matrix: ffd(P) == B * P.

@@ -51,6 +51,25 @@ inline double signed_volume(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen
   return signed_volume(V.data(), F, origin, threads);
 }
 
+/// Each face's cone volume from `origin`, (p0 - o) . ((p1 - o) x (p2 - o)) / 6: the
+/// terms signed_volume sums (their sum is the mesh's volume, up to rounding).
+/// @param[in] V  #V x 3 vertex positions; F assumed valid (see validate_mesh)
+/// @returns #F volumes
+inline VectorXd cone_volumes(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
+                             const Vector3d& origin, int threads = 0) {
+  VectorXd out(F.rows());
+  parallel_range(F.rows(), threads, [&](Index b, Index e) {
+    for (Index f = b; f < e; ++f) {
+      const Vector3d a = V.row(F(f, 0)).transpose() - origin, p = V.row(F(f, 1)).transpose() - origin,
+                     q = V.row(F(f, 2)).transpose() - origin;
+      out[f] = (a[0] * (p[1] * q[2] - p[2] * q[1]) + a[1] * (p[2] * q[0] - p[0] * q[2]) +
+                a[2] * (p[0] * q[1] - p[1] * q[0])) /
+               6.0;
+    }
+  });
+  return out;
+}
+
 /// Component `axis` of each face's unnormalised normal (p1 - p0) x (p2 - p0):
 /// the 2x2 determinants of eqs. 14, 16, 18. The volume is linear in the `axis`
 /// coordinates with weight w_v = sum of n_f / 6 over the faces f around v.
