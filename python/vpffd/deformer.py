@@ -309,7 +309,7 @@ class Deformer:
             check the *corrected* control points for fold-over (``check_folds``:
             about 10 ms on two cores for a 10^3 cubic lattice, 20-30 on one,
             ``bench/python/bench_folds.py``; then det J at the vertices, about
-            half a plain FFD) and put the report in
+            six plain FFDs) and put the report in
             ``result.folds``. "warn" emits a ``FoldWarning`` naming the folded
             cell, "raise" raises ``FoldError`` (its ``report`` attached) and keeps
             the previous frame (on "vulkan" the device's vertices are put back).
