@@ -328,6 +328,55 @@ double gather_final_runs(const BasisTables& T, const Embedding& E, const CellRun
   return vsum;
 }
 
+/// J[v] = dD/dx for the points of [b, e) (jacobian_points' layout, J holding points
+/// j_first, j_first + 1, ...), run by run: the gradient of each coordinate's cell
+/// polynomial in the local parameters (eval_power_grad) times the run's d tau / dx
+/// per axis. The same function as jacobian_points, rounded differently.
+template <int K>
+void jacobian_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* Px, const double* Py,
+                   const double* Pz, const Vector3d& du_dx, double* J, Index b, Index e, Index j_first = 0) {
+  const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
+  alignas(32) double C[3][K * K * K];
+  const double* P[3] = {Px, Py, Pz};
+  for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
+    if (R.length(r) < kShortRun) {
+      jacobian_points<K>(T, E, Px, Py, Pz, du_dx, J, lo, hi, j_first);
+      return;
+    }
+    const RunBasis rb = run_basis<K>(T, R, r);
+    double scale[3];
+    for (int a = 0; a < 3; ++a) {
+      const int s = R.span[a][r];
+      scale[a] = T.poly[a].inv_width[s - T.poly[a].first_span] * du_dx[a];
+    }
+    for (int c = 0; c < 3; ++c) to_power<K>(rb, P[c], si, sj, C[c]);
+    for (Index v = lo; v < hi; v += 4) {
+      Lanes U, V, W;
+      load_params(E, v, hi, U, V, W);
+      Lanes f, g[3][3];
+      for (int c = 0; c < 3; ++c) eval_power_grad<K>(C[c], U, V, W, f, g[c][0], g[c][1], g[c][2]);
+      for (Index l = 0; l < 4 && v + l < hi; ++l) {
+        double* out = J + 9 * (v + l - j_first);
+        for (int c = 0; c < 3; ++c)
+          for (int q = 0; q < 3; ++q) out[3 * c + q] = g[c][q][l] * scale[q];
+      }
+    }
+  });
+}
+
+/// jacobian_kernel with E's cell runs: jacobian_runs where the order is uniform.
+inline void jacobian_kernel(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* Px,
+                            const double* Py, const double* Pz, const Vector3d& du_dx, double* J, Index b, Index e,
+                            Index j_first = 0) {
+  dispatch_order(T, [&](auto Kc) {
+    constexpr int k = decltype(Kc)::value;
+    if constexpr (k > 0)
+      jacobian_runs<k>(T, E, R, Px, Py, Pz, du_dx, J, b, e, j_first);
+    else
+      jacobian_points<k>(T, E, Px, Py, Pz, du_dx, J, b, e, j_first);
+  });
+}
+
 /// Lane masks of scatter_runs' powers: kPowerMask<K>[q] lane l is 1 for l >= q,
 /// else 0, and kPowerFill<K>[q] = 1 - kPowerMask<K>[q].
 template <int K>

@@ -191,7 +191,7 @@ class Deformer {
     RowMatrixXd Js(n_vertices(), 9), J(n_vertices(), 9);
     const Vector3d s = parameter_scale(lattice_);
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
-      detail::jacobian_kernel(tables_, embedding_, Q.x.data(), Q.y.data(), Q.z.data(), s, Js.data(), b, e);
+      detail::jacobian_kernel(tables_, embedding_, runs_, Q.x.data(), Q.y.data(), Q.z.data(), s, Js.data(), b, e);
       for (Index i = b; i < e; ++i) J.row(order_[i]) = Js.row(i);
     });
     unmirror_jacobians(lattice_, V_, J);
@@ -212,7 +212,7 @@ class Deformer {
       std::vector<double> J(9 * kBlock);
       for (Index c = b; c < e; c += kBlock) {
         const Index ce = std::min(e, c + kBlock);
-        detail::jacobian_kernel(tables_, embedding_, Q.x.data(), Q.y.data(), Q.z.data(), s, J.data(), c, ce, c);
+        detail::jacobian_kernel(tables_, embedding_, runs_, Q.x.data(), Q.y.data(), Q.z.data(), s, J.data(), c, ce, c);
         for (Index i = c; i < ce; ++i) {
           const double* j = J.data() + 9 * (i - c);
           det[order_[i]] = j[0] * (j[4] * j[8] - j[5] * j[7]) - j[1] * (j[3] * j[8] - j[5] * j[6]) +
@@ -246,7 +246,7 @@ class Deformer {
       std::vector<double> J(9 * kBlock);
       for (Index c = b; c < e; c += kBlock) {
         const Index ce = std::min(e, c + kBlock);
-        detail::jacobian_kernel(tables_, embedding_, Q.x.data(), Q.y.data(), Q.z.data(), s, J.data(), c, ce, c);
+        detail::jacobian_kernel(tables_, embedding_, runs_, Q.x.data(), Q.y.data(), Q.z.data(), s, J.data(), c, ce, c);
         for (Index i = c; i < ce; ++i) {
           double* j = J.data() + 9 * (i - c);
           const Index v = order_[i];
