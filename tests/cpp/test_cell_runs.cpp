@@ -140,6 +140,30 @@ TEST(CellRuns, KernelsEqualPerPointKernels) {
         EXPECT_EQ((ga.col(0) - a.col(0)).cwiseAbs().maxCoeff(), 0.0);  // one coordinate only
         EXPECT_EQ((gb.col(2) - a.col(2)).cwiseAbs().maxCoeff(), 0.0);
 
+        // Jacobians: the same sums with one basis factor replaced by its derivative,
+        // |dN| <= (K - 1) K cmax times the span's d tau / dx, so the value bound times
+        // (K - 1) max d tau / dx, doubled for the gradient's extra Horner steps and the
+        // final scaling.
+        const Vector3d du_dx = parameter_scale(L);
+        double max_scale = 0;
+        for (int ax = 0; ax < 3; ++ax)
+          for (double iw : T.poly[ax].inv_width) max_scale = std::max(max_scale, iw * du_dx[ax]);
+        const double jtol = 2 * tol * (K - 1) * max_scale;
+        std::vector<double> ja(9 * n), jb(9 * n), jc(9 * n);
+        detail::jacobian_points<k>(T, E, Px.data(), Py.data(), Pz.data(), du_dx, ja.data(), 0, n);
+        detail::jacobian_runs<k>(T, E, p.runs, Px.data(), Py.data(), Pz.data(), du_dx, jb.data(), 0, n);
+        for (size_t q = 0; q + 1 < cuts.size(); ++q)  // blocks holding their own points only
+          detail::jacobian_runs<k>(T, E, p.runs, Px.data(), Py.data(), Pz.data(), du_dx, jc.data() + 9 * cuts[q],
+                                   cuts[q], cuts[q + 1], cuts[q]);
+        double jdiff = 0, jmax = 0;
+        for (Index i = 0; i < 9 * n; ++i) {
+          jdiff = std::max(jdiff, std::abs(ja[i] - jb[i]));
+          jmax = std::max(jmax, std::abs(ja[i]));
+        }
+        EXPECT_LE(jdiff, jtol);
+        EXPECT_GT(jmax, 1e3 * jtol);  // meaningful: the entries are far above the bound
+        EXPECT_EQ(jb, jc);
+
         // The last gather: moved points in the caller's order and sum w (x - o).
         VectorXd w(n);
         for (Index i = 0; i < n; ++i) w[i] = u(gen);
