@@ -77,7 +77,7 @@ template <int K, class Sink>
 void foot_runs_eval(const BasisTables& T, const FootRuns& F, const Vector3d& du_dx, const double* const P[3], Index b,
                     Index e, Sink&& sink) {
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
-  alignas(32) double C[3][K * K * K];
+  PowerLanes<K> C[3];
   const Embedding& E = F.embedding;
   for_each_run(F.runs, b, e, [&](Index r, Index lo, Index hi) {
     const RunBasis rb = run_basis<K>(T, F.runs, r);
