@@ -187,14 +187,12 @@ class Deformer {
   /// Jacobians dD/dx at the vertices: #V x 9, row-major 3x3 per vertex.
   RowMatrixXd jacobians(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "jacobians");
-    const PointColumns Q(expand_points(ties_, P));
-    RowMatrixXd Js(n_vertices(), 9), J(n_vertices(), 9);
-    const Vector3d s = parameter_scale(lattice_);
-    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
-      detail::jacobian_kernel(tables_, embedding_, runs_, Q.x.data(), Q.y.data(), Q.z.data(), s, Js.data(), b, e);
-      for (Index i = b; i < e; ++i) J.row(order_[i]) = Js.row(i);
+    const int twist = twist_axis(lattice_);
+    RowMatrixXd J(n_vertices(), 9);
+    for_each_jacobian(P, threads, [&](Index v, double* j) {
+      unmirror_jacobian(lattice_, twist, V_.row(v).transpose(), j);
+      std::copy(j, j + 9, J.row(v).data());
     });
-    unmirror_jacobians(lattice_, V_, J);
     return J;
   }
 
@@ -204,21 +202,10 @@ class Deformer {
   /// small buffer. (A twist seam's mirroring flips two columns: det is unchanged.)
   VectorXd jacobian_determinants(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "jacobian_determinants");
-    const PointColumns Q(expand_points(ties_, P));
-    const Vector3d s = parameter_scale(lattice_);
     VectorXd det(n_vertices());
-    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
-      constexpr Index kBlock = 256;
-      std::vector<double> J(9 * kBlock);
-      for (Index c = b; c < e; c += kBlock) {
-        const Index ce = std::min(e, c + kBlock);
-        detail::jacobian_kernel(tables_, embedding_, runs_, Q.x.data(), Q.y.data(), Q.z.data(), s, J.data(), c, ce, c);
-        for (Index i = c; i < ce; ++i) {
-          const double* j = J.data() + 9 * (i - c);
-          det[order_[i]] = j[0] * (j[4] * j[8] - j[5] * j[7]) - j[1] * (j[3] * j[8] - j[5] * j[6]) +
-                           j[2] * (j[3] * j[7] - j[4] * j[6]);
-        }
-      }
+    for_each_jacobian(P, threads, [&](Index v, double* j) {
+      det[v] = j[0] * (j[4] * j[8] - j[5] * j[7]) - j[1] * (j[3] * j[8] - j[5] * j[6]) +
+               j[2] * (j[3] * j[7] - j[4] * j[6]);
     });
     return det;
   }
@@ -235,32 +222,13 @@ class Deformer {
     VPFFD_CHECK(N0.rows() == n_vertices(), "deformed_normals: ", N0.rows(), " rest normals for ", n_vertices(),
                 " vertices");
     VPFFD_CHECK(N0.allFinite(), "deformed_normals: the rest normals contain NaN or Inf");
-    const PointColumns Q(expand_points(ties_, P));
-    const Vector3d s = parameter_scale(lattice_);
-    int twist = -1;  // a twist seam mirrors two columns of J at wrapped points (unmirror_jacobians)
-    for (int a = 0; a < 3; ++a)
-      if (lattice_.seam[a] == Seam::Twist) twist = a;
+    const int twist = twist_axis(lattice_);
     RowMatrixX3d N(n_vertices(), 3);
-    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
-      constexpr Index kBlock = 256;
-      std::vector<double> J(9 * kBlock);
-      for (Index c = b; c < e; c += kBlock) {
-        const Index ce = std::min(e, c + kBlock);
-        detail::jacobian_kernel(tables_, embedding_, runs_, Q.x.data(), Q.y.data(), Q.z.data(), s, J.data(), c, ce, c);
-        for (Index i = c; i < ce; ++i) {
-          double* j = J.data() + 9 * (i - c);
-          const Index v = order_[i];
-          bool flip = false;
-          if (twist >= 0) wrap_point(lattice_, V_.row(v).transpose(), &flip);
-          if (flip)
-            for (int r = 0; r < 3; ++r)
-              for (int k = 0; k < 3; ++k)
-                if (k != twist) j[3 * r + k] = -j[3 * r + k];
-          const Vector3d c0(j[0], j[3], j[6]), c1(j[1], j[4], j[7]), c2(j[2], j[5], j[8]);
-          const Vector3d n = N0(v, 0) * c1.cross(c2) + N0(v, 1) * c2.cross(c0) + N0(v, 2) * c0.cross(c1);
-          N.row(v) = detail::normalized_or_zero(n).transpose();
-        }
-      }
+    for_each_jacobian(P, threads, [&](Index v, double* j) {
+      unmirror_jacobian(lattice_, twist, V_.row(v).transpose(), j);
+      const Vector3d c0(j[0], j[3], j[6]), c1(j[1], j[4], j[7]), c2(j[2], j[5], j[8]);
+      const Vector3d n = N0(v, 0) * c1.cross(c2) + N0(v, 1) * c2.cross(c0) + N0(v, 2) * c0.cross(c1);
+      N.row(v) = detail::normalized_or_zero(n).transpose();
     });
     return N;
   }
@@ -515,6 +483,25 @@ class Deformer {
       if (seam_shift_.rows() > 0)
         for (Index i = b; i < e; ++i)
           for (int c = 0; c < 3; ++c) out[3 * (rows ? Index(rows[i]) : i) + c] += seam_shift_(i, c);
+    });
+  }
+
+  /// Calls f(v, j) for every vertex v (caller index) with j its Jacobian dD/dx (9,
+  /// row-major; at a twist seam's wrapped points that of the wrapped twin, see
+  /// unmirror_jacobian), computed in blocks of the processing order in a small buffer
+  /// (no #V x 9 array). f may change j; it runs on the frame's threads.
+  template <class F>
+  void for_each_jacobian(const Eigen::Ref<const RowMatrixX3d>& P, int threads, F&& f) const {
+    const PointColumns Q(expand_points(ties_, P));
+    const Vector3d s = parameter_scale(lattice_);
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      constexpr Index kBlock = 256;
+      std::vector<double> J(9 * kBlock);
+      for (Index c = b; c < e; c += kBlock) {
+        const Index ce = std::min(e, c + kBlock);
+        detail::jacobian_kernel(tables_, embedding_, runs_, Q.x.data(), Q.y.data(), Q.z.data(), s, J.data(), c, ce, c);
+        for (Index i = c; i < ce; ++i) f(Index(order_[i]), J.data() + 9 * (i - c));
+      }
     });
   }
 

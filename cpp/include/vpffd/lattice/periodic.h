@@ -169,22 +169,25 @@ inline RowMatrixX3d seam_translations(const Lattice& L, const Eigen::Ref<const R
   return T;
 }
 
-/// Jacobians (#V x 9, row-major) of the FFD at the wrapped points, turned into
-/// those of the map of the points as given: a point mirrored by wrap_point has
-/// J * M with M the mirror of the two other axes (columns negated).
-inline void unmirror_jacobians(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X, RowMatrixXd& J) {
-  int twist = -1;
+/// The axis with a twist seam, or -1 (a lattice has at most one).
+inline int twist_axis(const Lattice& L) {
   for (int a = 0; a < 3; ++a)
-    if (L.seam[a] == Seam::Twist) twist = a;
+    if (L.seam[a] == Seam::Twist) return a;
+  return -1;
+}
+
+/// The Jacobian j (9, row-major) of the FFD at point x's wrapped twin turned into
+/// that of the map of x as given: a point mirrored by wrap_point has J * M with M
+/// the mirror of the two axes other than `twist` (those columns negated).
+/// @param twist  twist_axis(L); nothing to do when it is -1
+inline void unmirror_jacobian(const Lattice& L, int twist, const Vector3d& x, double* j) {
   if (twist < 0) return;
-  for (Index v = 0; v < X.rows(); ++v) {
-    bool flip = false;
-    wrap_point(L, X.row(v).transpose(), &flip);
-    if (!flip) continue;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c)
-        if (c != twist) J(v, 3 * r + c) = -J(v, 3 * r + c);
-  }
+  bool flip = false;
+  wrap_point(L, x, &flip);
+  if (!flip) return;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      if (c != twist) j[3 * r + c] = -j[3 * r + c];
 }
 
 }  // namespace vpffd

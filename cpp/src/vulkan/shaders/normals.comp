@@ -70,7 +70,7 @@ void main() {
     // A vertex that a twist seam mirrored (embed.comp): the map of the point as given
     // is D(M x), M the mirror of the two other axes (det M = 1, M^-T = M), whose
     // cofactor matrix is cof(J) M: the rest normal is mirrored (the CPU negates J's
-    // columns instead, lattice/periodic.h unmirror_jacobians; the same products).
+    // columns instead, lattice/periodic.h unmirror_jacobian; the same products).
     if (ANY_TWIST && seam[v].w != 0.0)
       for (int a = 0; a < 3; ++a)
         if (seam_of(a) != SEAM_TWIST) n0[a] = -n0[a];
