@@ -42,19 +42,22 @@ def _rest_cones(deformer):
     return cached[1], cached[2]
 
 
+def _volume_changes(deformer, X, check: bool) -> np.ndarray:
+    cones = _core.cone_volumes(X, deformer.mesh.faces, deformer.lattice.center, check)
+    return np.abs(cones - _rest_cones(deformer)[0])
+
+
 def face_volume_changes(deformer, deformed_vertices) -> np.ndarray:
     """(F,) |V_f(deformed) - V_f(rest)| of the cones from the lattice centre."""
     X = _arrays.points(deformed_vertices, "face_volume_changes: deformed_vertices", rows=deformer.mesh.n_vertices)
-    deformed = _core.cone_volumes(X, deformer.mesh.faces, deformer.lattice.center, True)
-    return np.abs(deformed - _rest_cones(deformer)[0])
+    return _volume_changes(deformer, X, True)
 
 
 def local_volume_change(deformer, control_points=None) -> np.ndarray:
     """(N,) L_c: each control point's share of the volume change of the plain FFD
     over its support (formula in the module docstring), in volume units."""
     F = deformer.mesh.faces
-    X = deformer.ffd(control_points)  # the core's output: checked already
-    dV = np.abs(_core.cone_volumes(X, F, deformer.lattice.center, False) - _rest_cones(deformer)[0])
+    dV = _volume_changes(deformer, deformer.ffd(control_points), False)  # the core's output: checked already
     per_vertex = np.bincount(F.reshape(-1), weights=np.repeat(dV / 3.0, 3), minlength=deformer.mesh.n_vertices)
     # B^T per_vertex over the distinct control points (a periodic point's copies
     # summed), by the core's scatter: no (V, N) basis matrix.
