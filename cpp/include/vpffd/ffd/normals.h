@@ -45,6 +45,13 @@ inline void tangent_frame(const Vector3d& n, Vector3d& t1, Vector3d& t2) {
   t2 = n.cross(t1);
 }
 
+/// cof(J) n0 normalised (zero where it vanishes), J row-major (j[3 r + c] = dD_r / dx_c):
+/// n0's components times the cross products of J's columns, the images of the axes.
+inline Vector3d cofactor_normal(const double* j, const Vector3d& n0) {
+  const Vector3d c0(j[0], j[3], j[6]), c1(j[1], j[4], j[7]), c2(j[2], j[5], j[8]);
+  return normalized_or_zero(n0[0] * c1.cross(c2) + n0[1] * c2.cross(c0) + n0[2] * c0.cross(c1));
+}
+
 }  // namespace detail
 
 /// Unit vertex normals: the sum of the area-weighted face normals around each
@@ -97,12 +104,8 @@ inline RowMatrixX3d deformed_normals_exact(const Eigen::Ref<const RowMatrixXd>& 
   VPFFD_CHECK(J.allFinite() && N0.allFinite(), "deformed_normals_exact: input contains NaN or Inf");
   RowMatrixX3d N(N0.rows(), 3);
   parallel_range(N0.rows(), threads, [&](Index b, Index e) {
-    for (Index v = b; v < e; ++v) {
-      // Columns of J: images of the coordinate axes.
-      const Vector3d c0(J(v, 0), J(v, 3), J(v, 6)), c1(J(v, 1), J(v, 4), J(v, 7)), c2(J(v, 2), J(v, 5), J(v, 8));
-      const Vector3d n = N0(v, 0) * c1.cross(c2) + N0(v, 1) * c2.cross(c0) + N0(v, 2) * c0.cross(c1);
-      N.row(v) = detail::normalized_or_zero(n).transpose();
-    }
+    for (Index v = b; v < e; ++v)
+      N.row(v) = detail::cofactor_normal(J.row(v).data(), N0.row(v).transpose()).transpose();
   });
   return N;
 }

@@ -226,9 +226,7 @@ class Deformer {
     RowMatrixX3d N(n_vertices(), 3);
     for_each_jacobian(P, threads, [&](Index v, double* j) {
       unmirror_jacobian(lattice_, twist, V_.row(v).transpose(), j);
-      const Vector3d c0(j[0], j[3], j[6]), c1(j[1], j[4], j[7]), c2(j[2], j[5], j[8]);
-      const Vector3d n = N0(v, 0) * c1.cross(c2) + N0(v, 1) * c2.cross(c0) + N0(v, 2) * c0.cross(c1);
-      N.row(v) = detail::normalized_or_zero(n).transpose();
+      N.row(v) = detail::cofactor_normal(j, N0.row(v).transpose()).transpose();
     });
     return N;
   }

@@ -10,6 +10,17 @@
 
 namespace vpffd {
 
+namespace detail {
+/// Six times the signed volume of the cone from o over the triangle (p0, p1, p2):
+/// (p0 - o) . ((p1 - o) x (p2 - o)).
+inline double cone6(const double* p0, const double* p1, const double* p2, const Vector3d& o) {
+  const double a[3] = {p0[0] - o[0], p0[1] - o[1], p0[2] - o[2]};
+  const double b[3] = {p1[0] - o[0], p1[1] - o[1], p1[2] - o[2]};
+  const double c[3] = {p2[0] - o[0], p2[1] - o[1], p2[2] - o[2]};
+  return a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+}
+}  // namespace detail
+
 /// Signed volume sum_f (p0 - o) . ((p1 - o) x (p2 - o)) / 6, positive for
 /// outward-oriented closed meshes.
 ///
@@ -27,14 +38,7 @@ inline double signed_volume(const double* V, const Eigen::Ref<const RowMatrixX3i
   parallel_chunks(nf, chunks, threads, [&](int c, Index b, Index e) {
     double s = 0;
     for (Index f = b; f < e; ++f) {
-      const double* p0 = V + 3 * Index(F(f, 0));
-      const double* p1 = V + 3 * Index(F(f, 1));
-      const double* p2 = V + 3 * Index(F(f, 2));
-      const double a[3] = {p0[0] - origin[0], p0[1] - origin[1], p0[2] - origin[2]};
-      const double b_[3] = {p1[0] - origin[0], p1[1] - origin[1], p1[2] - origin[2]};
-      const double c_[3] = {p2[0] - origin[0], p2[1] - origin[1], p2[2] - origin[2]};
-      s += a[0] * (b_[1] * c_[2] - b_[2] * c_[1]) + a[1] * (b_[2] * c_[0] - b_[0] * c_[2]) +
-           a[2] * (b_[0] * c_[1] - b_[1] * c_[0]);
+      s += detail::cone6(V + 3 * Index(F(f, 0)), V + 3 * Index(F(f, 1)), V + 3 * Index(F(f, 2)), origin);
     }
     part[c] = s;
   });
@@ -59,13 +63,8 @@ inline VectorXd cone_volumes(const Eigen::Ref<const RowMatrixX3d>& V, const Eige
                              const Vector3d& origin, int threads = 0) {
   VectorXd out(F.rows());
   parallel_range(F.rows(), threads, [&](Index b, Index e) {
-    for (Index f = b; f < e; ++f) {
-      const Vector3d a = V.row(F(f, 0)).transpose() - origin, p = V.row(F(f, 1)).transpose() - origin,
-                     q = V.row(F(f, 2)).transpose() - origin;
-      out[f] = (a[0] * (p[1] * q[2] - p[2] * q[1]) + a[1] * (p[2] * q[0] - p[0] * q[2]) +
-                a[2] * (p[0] * q[1] - p[1] * q[0])) /
-               6.0;
-    }
+    auto row = [&](int c, Index f) { return V.data() + V.outerStride() * Index(F(f, c)); };  // rows are contiguous
+    for (Index f = b; f < e; ++f) out[f] = detail::cone6(row(0, f), row(1, f), row(2, f), origin) / 6.0;
   });
   return out;
 }
