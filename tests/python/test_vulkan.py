@@ -199,6 +199,28 @@ def test_second_deformer_same_device(sphere):
     assert gpu.device["index"] == other.device["index"]
 
 
+def test_deformers_made_and_dropped_one_after_another():
+    # NVIDIA's driver (580, an H100) refused vkCreateInstance with
+    # VK_ERROR_INCOMPATIBLE_DRIVER after 27 create/destroy cycles of the instance in one
+    # process, which the backend went through whenever the last Deformer died. It now
+    # makes its instance and devices once per process. lavapipe never refused, so this
+    # test catches the regression on such a GPU only; a fresh process, so that no
+    # Deformer of another test keeps the instance alive.
+    code = """
+import gc, vpffd
+m = vpffd.shapes.icosphere(1)
+lat = vpffd.Lattice.around(m, shape=4)
+for i in range(40):
+    d = vpffd.Deformer(m, lat, backend="vulkan", device=%r)
+    d.deform(lat.control_points)
+    del d
+    gc.collect()
+print("done")
+""" % SEL
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0 and "done" in out.stdout, out.stderr[-2000:]
+
+
 def _error(fn):
     try:
         fn()

@@ -61,9 +61,14 @@ VkResult load_vulkan() {
   return result;
 }
 
+// The instance and the devices live as long as the process once made, and are never
+// destroyed: NVIDIA's driver (580, H100) refuses vkCreateInstance with
+// VK_ERROR_INCOMPATIBLE_DRIVER after about 27 create/destroy cycles in one process, and
+// a cycle with its device costs ~300 ms there. Destroying them from a static destructor
+// could run after the driver's own teardown, so they are left to the process's exit.
 std::shared_ptr<Instance> instance_locked() {
-  static std::weak_ptr<Instance> cache;
-  if (auto p = cache.lock()) return p;
+  static auto* cache = new std::shared_ptr<Instance>();
+  if (*cache) return *cache;
   if (load_vulkan() != VK_SUCCESS)
     throw BackendUnavailableError(
         "vulkan: no Vulkan loader (libvulkan.so.1) could be loaded; install libvulkan1 and a driver "
@@ -85,7 +90,7 @@ std::shared_ptr<Instance> instance_locked() {
   // Device functions through the loader trampolines (not volkLoadDevice): they
   // dispatch on the VkDevice, so several devices can be used at once.
   volkLoadInstance(inst->handle);
-  cache = inst;
+  *cache = inst;
   return inst;
 }
 
@@ -253,8 +258,8 @@ std::shared_ptr<Device> open_device(const std::string& selector) {
                                                           "'; the devices are: ", list_devices(infos)));
   }
 
-  static std::map<int, std::weak_ptr<Device>> cache;
-  if (auto d = cache[chosen].lock()) return d;
+  static auto* cache = new std::map<int, std::shared_ptr<Device>>();  // see instance_locked
+  if (auto d = (*cache)[chosen]) return d;
 
   auto dev = std::make_shared<Device>();
   dev->inst = inst;
@@ -299,7 +304,7 @@ std::shared_ptr<Device> open_device(const std::string& selector) {
   ci.pEnabledFeatures = &feats;
   check(vkCreateDevice(dev->phys, &ci, nullptr, &dev->handle), "vkCreateDevice");
   vkGetDeviceQueue(dev->handle, dev->family, 0, &dev->queue);
-  cache[chosen] = dev;
+  (*cache)[chosen] = dev;
   return dev;
 }
 

@@ -39,7 +39,7 @@ inline VkCommandBuffer allocate_command_buffer(VkDevice d, VkCommandPool pool) {
   return cb;
 }
 
-/// The instance, shared by every device and deformer of the process while any lives.
+/// The instance, shared by every device and deformer; made once per process, never destroyed.
 struct Instance {
   VkInstance handle = VK_NULL_HANDLE;
   ~Instance();
