@@ -131,6 +131,9 @@ struct VulkanDeformer::Impl {
   std::uint32_t g_part = 1;
   VectorXd rest_part_vol;  // K, with parts: each part's rest volume (the default targets)
   std::uint32_t g_vert = 1, g_face = 1, g_cp = 1, g_tile = 1;
+  // combine.comp: invocations per coefficient row (its LANES) and workgroups.
+  int row_lanes = 1;
+  std::uint32_t g_rows = 1;
   // Workgroups of a volume pass, and so its partials in `red` (per part: g_part each).
   std::uint32_t red_groups() const { return K > 1 ? std::uint32_t(K) * g_part : g_face; }
   Vector3d origin;
@@ -330,7 +333,7 @@ struct VulkanDeformer::Impl {
   }
   const Deformer& synced_cpu();
   const CorrectionOptions& plan_options(const CorrectionOptions& opt, CorrectionOptions& storage) const;
-  void create_pipelines(const std::array<std::int32_t, 15>& spec);
+  void create_pipelines(const std::array<std::int32_t, 16>& spec);
 
   // ---- frames (all with frame_mutex held) -----------------------------------------
   VkCommandBuffer readback() {

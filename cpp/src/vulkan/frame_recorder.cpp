@@ -70,7 +70,7 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
     s.flags = shape.open ? 4 : 0;
     if (steps) {
       dispatch(cb, kCoef, g_tile, s);
-      dispatch(cb, kCombine, g_cp, s);
+      dispatch(cb, kCombine, g_rows, s);
       dispatch(cb, kSolve, 1, s);
     }
     s.slot = steps ? 3 : s.axis;  // delta row: this step's offsets, or the axis's total

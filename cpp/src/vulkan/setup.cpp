@@ -18,6 +18,7 @@
 // K x NE keys, the tiles' bound to V / 64 + min(V, K cells), alpha to K rows of N.
 
 #include <array>
+#include <cstdlib>
 
 #include "deformer_impl.h"
 #include "vpffd/ffd/basis_matrix.h"
@@ -30,7 +31,7 @@ using detail::groups_for;
 using detail::ms_since;
 using detail::put_reals;
 
-void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 15>& spec) {
+void VulkanDeformer::Impl::create_pipelines(const std::array<std::int32_t, 16>& spec) {
   detail::create_compute_pipelines(d, buf, kBindings, sizeof(Push), spec.data(), std::uint32_t(spec.size()),
                                    ff ? kShadersFF : kShaders64, kPipes, pl);
 }
@@ -142,6 +143,20 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   g_face = groups_for(nf, kMaxGroups);
   g_cp = groups_for(NE, 256);
   g_tile = static_cast<std::uint32_t>(std::min<Index>(n_tiles, 65535));
+  // A GPU sums each coefficient row with a workgroup's lanes; a CPU device (lavapipe)
+  // runs a workgroup's invocations in turn, so one lane per row there (combine.comp).
+  // VPFFD_VULKAN_ROW_LANES overrides (the tests take every path on lavapipe).
+  row_lanes = dev->info.type == "cpu" ? 1 : VPFFD_TILE;
+  if (const char* e = std::getenv("VPFFD_VULKAN_ROW_LANES"); e && *e) {
+    char* end = nullptr;
+    const long v = std::strtol(e, &end, 10);
+    if (*end || v < 1 || v > VPFFD_TILE || (v & (v - 1)))
+      throw InvalidInputError(vpffd::detail::concat("VPFFD_VULKAN_ROW_LANES: expected a power of two from 1 to ",
+                                                    VPFFD_TILE, ", got '", e, "'"));
+    row_lanes = static_cast<int>(v);
+  }
+  const Index rows_per_group = VPFFD_TILE / row_lanes;
+  g_rows = static_cast<std::uint32_t>(std::clamp<Index>((Index(K) * N + rows_per_group - 1) / rows_per_group, 1, 65535));
   const size_t scan_size = std::max<size_t>(size_t(VPFFD_SORT_DIGITS) * sort_blocks, size_t(n_keys) + 1);
 
   using B = detail::Buffer;
@@ -246,11 +261,12 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
     seams |= static_cast<std::int32_t>(L.seam[a]) << (2 * a);
     if (L.seam[a] != Seam::None) kinds |= 1 << static_cast<int>(L.seam[a]);
   }
-  const std::array<std::int32_t, 15> spec = {T.order[0], T.order[1], T.order[2],
+  const std::array<std::int32_t, 16> spec = {T.order[0], T.order[1], T.order[2],
                                               dims[0], dims[1], dims[2],
                                               static_cast<std::int32_t>(nv), static_cast<std::int32_t>(nf),
                                               static_cast<std::int32_t>(n_tiles), poly_off[1], poly_off[2],
-                                              ties.identity ? 0 : static_cast<std::int32_t>(N), seams, kinds, K};
+                                              ties.identity ? 0 : static_cast<std::int32_t>(N), seams, kinds, K,
+                                              row_lanes};
   create_pipelines(spec);
 
   // The construction's rest mesh goes through the same device embedding as every
