@@ -58,6 +58,29 @@ from vpffd.normals import angles_deg, deformed_normals
 ROOT = Path(__file__).resolve().parents[2]
 
 
+def cpu_model():
+    """The CPU's model name (platform.processor() is empty on most Linux machines)."""
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def warm_up(gpu, Pflat, seconds):
+    """Frames back to back for `seconds`: a GPU idles at a low clock (an H100 at 345 of
+    1980 MHz) and short bursts do not raise it, so untimed frames come first."""
+    end = time.perf_counter() + seconds
+    while time.perf_counter() < end:
+        gpu._vk.deform(Pflat, read_vertices=False)
+
+
+def load():
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
 def read_ply(path):
     """Binary little-endian PLY with float32 x, y, z and 'list uchar int' triangles (gzipped or not).
 
@@ -111,6 +134,7 @@ def bench_mesh(name, mesh, args):
 
     for _ in range(2):  # shader compilation (JIT on lavapipe), first-touch of memory
         gpu.deform(P)
+    warm_up(gpu, np.ascontiguousarray(P.reshape(-1, 3)), args.warmup)
     gx = []
     for _ in range(r):
         gpu.deform(P, axes="x")
@@ -177,6 +201,7 @@ def bench_scaling(args, device, precision):
         gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=args.device, gpu_precision=args.precision)
         setup_s = time.perf_counter() - t0
         first = gpu.deform(P)  # shader JIT, first touch
+        warm_up(gpu, Pflat, args.warmup)
         gt, kept, e2e = [], [], []
         for _ in range(r):
             t0 = time.perf_counter()
@@ -217,6 +242,7 @@ def bench_scaling(args, device, precision):
     print("  ".join(k.rjust(w) for (k, _), w in zip(cols, width)))
     for c in cells:
         print("  ".join(v.rjust(w) for v, w in zip(c, width)))
+    print(f"load average {load()}")
     print(f"fit over >= 300k triangles: gpu_xyz_ms = {a:.3f} + {b * 1e6:.3f} ms per million triangles")
     if device["type"] == "cpu":
         print("(a software Vulkan device: these GPU times only show that the path runs, not GPU speed)")
@@ -233,8 +259,8 @@ COLUMNS = [("model", "model", "{}"), ("vertices", "vertices", "{}"), ("gpu_ffd_m
 
 
 def print_table(rows, device, precision):
-    print(f"\nTable 2 (ms, medians) on {device['name']} ({device['type']}, {precision} sums); CPU: {platform.processor() or 'cpu'}, "
-          f"{os.cpu_count()} cores")
+    print(f"\nTable 2 (ms, medians) on {device['name']} ({device['type']}, {precision} sums); CPU: {cpu_model()}, "
+          f"{os.cpu_count()} cores; load average {load()}")
     head = [c[1] for c in COLUMNS]
     cells = [[fmt.format(r[k]) for k, _, fmt in COLUMNS] for r in rows]
     width = [max(len(h), *(len(c[i]) for c in cells)) for i, h in enumerate(head)]
@@ -250,6 +276,8 @@ def main(argv=None):
     ap.add_argument("--shape", type=int, default=10, help="control points per axis (default 10)")
     ap.add_argument("--degree", type=int, default=3)
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--warmup", type=float, default=1.0,
+                    help="seconds of untimed frames before each mesh's timings (GPU clocks ramp up under load)")
     ap.add_argument("--max-vertices", type=int, default=0, help="skip larger meshes (0: none)")
     ap.add_argument("--device", default=os.environ.get("VPFFD_VULKAN_DEVICE", ""),
                     help="Vulkan device index or name part (default: VPFFD_VULKAN_DEVICE, else the first suitable)")
@@ -268,6 +296,7 @@ def main(argv=None):
     probe = vpffd.Deformer(vpffd.shapes.icosphere(1), vpffd.Lattice.around(vpffd.shapes.icosphere(1), shape=4),
                            backend="vulkan", device=args.device, gpu_precision=args.precision)
     device = probe.device
+    load_start = load()
     slug = re.sub(r"[^A-Za-z0-9]+", "_", device["name"]).strip("_").lower()
     if probe.gpu_precision == "float-float":
         slug += "_ff"
@@ -279,7 +308,7 @@ def main(argv=None):
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
             w.writeheader()
             w.writerows(rows)
-        meta = dict(device=device, cpu=platform.processor(), cores=os.cpu_count(), python=platform.python_version(),
+        meta = dict(device=device, cpu=cpu_model(), load_start=load_start, load_end=load(), cores=os.cpu_count(), python=platform.python_version(),
                     vpffd=vpffd.__version__, precision=probe.gpu_precision, shape=args.shape, degree=args.degree,
                     repeats=args.repeats, fit=fit,
                     rows=rows)
@@ -296,7 +325,7 @@ def main(argv=None):
         w = csv.DictWriter(f, fieldnames=list(rows[0]) if rows else ["model"])
         w.writeheader()
         w.writerows(rows)
-    meta = dict(device=device, cpu=platform.processor(), cores=os.cpu_count(), python=platform.python_version(),
+    meta = dict(device=device, cpu=cpu_model(), load_start=load_start, load_end=load(), cores=os.cpu_count(), python=platform.python_version(),
                 vpffd=vpffd.__version__, precision=probe.gpu_precision, shape=args.shape, degree=args.degree,
                 repeats=args.repeats, rows=rows)
     (out / f"gpu_{slug}.json").write_text(json.dumps(meta, indent=1))
