@@ -21,6 +21,7 @@
 #include "shaders/layout.h"
 #include "vk_handle.h"
 #include "vpffd/backend/vulkan.h"
+#include "vpffd/core/parallel.h"
 #include "vpffd/shaders/pipes.h"
 
 namespace vpffd::vulkan {
@@ -356,21 +357,22 @@ struct VulkanDeformer::Impl {
     return unpack_vertices();
   }
 
-  // rb_X, filled by readback(), in the input order and world units.
-  RowMatrixX3d unpack_vertices() const {
-    const float* x = static_cast<const float*>(rb_X.mapped());
-    RowMatrixX3d out(nv, 3);
-    for (Index i = 0; i < nv; ++i)
-      for (int a = 0; a < 3; ++a) out(slot[i], a) = double(x[3 * i + a]) * scale + origin[a];
-    return out;
-  }
+  // rb_X, filled by readback(), in the input order and world units. On all cores: on an
+  // H100 a 2.6 M-vertex frame took 80 ms end to end against 1.6 ms on the device, the
+  // rest on the host (not broken down there); this scattered conversion was serial.
+  RowMatrixX3d unpack_vertices() const { return unpack(rb_X, scale, origin); }
 
   // rb_N, filled by a frame with normals, in the input order.
-  RowMatrixX3d unpack_normals() const {
-    const float* x = static_cast<const float*>(rb_N.mapped());
+  RowMatrixX3d unpack_normals() const { return unpack(rb_N, 1.0, Vector3d::Zero()); }
+
+  // Device slot i's float32 triple of `rb`, times `s` plus `o`, as input vertex slot[i].
+  RowMatrixX3d unpack(const Buffer& rb, double s, const Vector3d& o) const {
+    const float* x = static_cast<const float*>(rb.mapped());
     RowMatrixX3d out(nv, 3);
-    for (Index i = 0; i < nv; ++i)
-      for (int a = 0; a < 3; ++a) out(slot[i], a) = double(x[3 * i + a]);
+    parallel_range(nv, 0, [&](Index b, Index e) {
+      for (Index i = b; i < e; ++i)
+        for (int a = 0; a < 3; ++a) out(slot[i], a) = double(x[3 * i + a]) * s + o[a];
+    });
     return out;
   }
 
