@@ -52,7 +52,7 @@ import numpy as np
 
 import vpffd
 
-from vpffd.cli.benchmark import SHARED_MESHES, frame_edit as edit, median_ms
+from vpffd.cli.benchmark import SHARED_MESHES, frame_edit as edit, median_ms, run_for
 from vpffd.normals import angles_deg, deformed_normals
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -67,14 +67,6 @@ def cpu_model():
     except OSError:
         pass
     return platform.processor() or platform.machine()
-
-
-def warm_up(gpu, Pflat, seconds):
-    """Frames back to back for `seconds`: a GPU idles at a low clock (an H100 at 345 of
-    1980 MHz) and short bursts do not raise it, so untimed frames come first."""
-    end = time.perf_counter() + seconds
-    while time.perf_counter() < end:
-        gpu._vk.deform(Pflat, read_vertices=False)
 
 
 def load():
@@ -134,7 +126,8 @@ def bench_mesh(name, mesh, args):
 
     for _ in range(2):  # shader compilation (JIT on lavapipe), first-touch of memory
         gpu.deform(P)
-    warm_up(gpu, np.ascontiguousarray(P.reshape(-1, 3)), args.warmup)
+    Pflat = np.ascontiguousarray(P.reshape(-1, 3))
+    run_for(lambda: gpu._vk.deform(Pflat, read_vertices=False), args.warmup)  # the GPU's clock up
     gx = []
     for _ in range(r):
         gpu.deform(P, axes="x")
@@ -145,7 +138,6 @@ def bench_mesh(name, mesh, args):
         res = gpu.deform(P)
         e2e.append((time.perf_counter() - t0) * 1e3)
         gxyz.append(gpu.last_timings())
-    Pflat = np.ascontiguousarray(P.reshape(-1, 3))
     for _ in range(r):
         t0 = time.perf_counter()
         gpu._vk.deform(Pflat, read_vertices=False)
@@ -201,7 +193,7 @@ def bench_scaling(args, device, precision):
         gpu = vpffd.Deformer(mesh, lat, backend="vulkan", device=args.device, gpu_precision=args.precision)
         setup_s = time.perf_counter() - t0
         first = gpu.deform(P)  # shader JIT, first touch
-        warm_up(gpu, Pflat, args.warmup)
+        run_for(lambda: gpu._vk.deform(Pflat, read_vertices=False), args.warmup)  # the GPU's clock up
         gt, kept, e2e = [], [], []
         for _ in range(r):
             t0 = time.perf_counter()
@@ -319,6 +311,8 @@ def main(argv=None):
     for name, mesh in meshes(args.max_vertices):
         print(f"{name}: {mesh.n_vertices} vertices ...", file=sys.stderr, flush=True)
         rows.append(bench_mesh(name, mesh, args))
+    if not rows:
+        sys.exit(f"bench_gpu: no mesh has at most --max-vertices {args.max_vertices} vertices")
     print_table(rows, device, probe.gpu_precision)
     out.mkdir(parents=True, exist_ok=True)
     with open(out / f"gpu_{slug}.csv", "w", newline="") as f:

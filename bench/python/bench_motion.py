@@ -40,6 +40,7 @@ import vpffd
 from vpffd import animate, edits, shapes
 from vpffd.cli import motion
 from vpffd.cli.motion import _moved
+from vpffd.cli.benchmark import run_for
 
 def whales():
     s = motion.shoal(fish=shapes.fish(218, 130))            # the demo's shoal at the paper's count
@@ -96,11 +97,7 @@ def measure(mesh, lat, P, path, backend, threads, frames, preserve):
     d.set_rest_vertices(Xs[0])
     d.deform(P, preserve_volume=preserve)  # warm-up
     if backend == "vulkan":
-        # A GPU idles at a low clock (an H100 at 345 of 1980 MHz) that short bursts do
-        # not raise: a second of untimed frames first.
-        end = time.perf_counter() + 1.0
-        while time.perf_counter() < end:
-            d.deform(P, preserve_volume=preserve)
+        run_for(lambda: d.deform(P, preserve_volume=preserve), 1.0)  # the GPU's clock up
     emb, frm, dev = [], [], []
     for X in Xs[1:]:
         t0 = time.perf_counter()

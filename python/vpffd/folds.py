@@ -195,19 +195,13 @@ def check_folds(lattice, control_points=None, depth: int = DEFAULT_DEPTH, thread
                       lattice)
 
 
-def vertex_det(deformer, control_points=None) -> np.ndarray:
-    """(V,) det J of the FFD at the rest vertices of ``deformer.mesh``
-    (deformed volume per rest volume; < 0 where the mesh is turned inside out)."""
-    return deformer.jacobian_determinants(control_points)
-
-
 def vertex_folds(deformer, control_points=None, report=None, depth: int = DEFAULT_DEPTH):
     """What a renderer needs to show folds on the mesh: ``(det, status)`` with
     det (V,) float64 det J at each vertex and status (V,) int8 the status of the
     lattice cell that holds it (FOLDED, UNKNOWN, CERTIFIED). ``report``: a
     FoldReport of the same control points (default: checked now)."""
     rep = report if report is not None else check_folds(deformer.lattice, control_points, depth)
-    return vertex_det(deformer, control_points), rep.status_at(deformer.mesh.vertices)
+    return deformer.jacobian_determinants(control_points), rep.status_at(deformer.mesh.vertices)
 
 
 # A negative det J at a vertex decides only beyond the rounding of the Jacobian:

@@ -524,7 +524,9 @@ TEST(Deformer, FactoredJacobianMatchesTripleLoop) {
     const Vector3d s = parameter_scale(L);
     const Index n = m.V.rows();
     std::vector<double> fast(9 * n), ref(9 * n);
-    detail::jacobian_kernel(T, E, Px.data(), Py.data(), Pz.data(), s, fast.data(), 0, n);
+    detail::dispatch_order(T, [&](auto Kc) {  // the uniform-order path of this lattice
+      detail::jacobian_points<decltype(Kc)::value>(T, E, Px.data(), Py.data(), Pz.data(), s, fast.data(), 0, n);
+    });
     detail::jacobian_points<0>(T, E, Px.data(), Py.data(), Pz.data(), s, ref.data(), 0, n);
     const double Pmax = P.cwiseAbs().maxCoeff();
     const int K = d + 1, chain = 3 * K + 2;

@@ -199,7 +199,7 @@ def test_deformer_check_folds_adds_vertex_det(cube_case):
     J = d.jacobians(P)
     det = np.linalg.det(J)
     # The core expands det J by cofactors, numpy factors J: the two differ by rounding,
-    # a few eps times the Hadamard bound prod |column| (1e-13 of it is far above that).
+    # a few eps times the Hadamard bound prod |row| (1e-13 of it is far above that).
     bound = 1e-13 * np.prod(np.linalg.norm(J, axis=1), axis=1)
     assert abs(rep.vertex_min_det - det.min()) <= bound.max()
     assert abs(det[rep.vertex_argmin] - det.min()) <= 2 * bound.max()

@@ -42,6 +42,16 @@ def median_ms(fn, repeats: int) -> float:
     return 1e3 * float(np.median(t))
 
 
+def run_for(fn, seconds: float) -> None:
+    """Calls fn() back to back for `seconds` (untimed). A GPU idles at a low clock
+    (an H100 at 345 of 1980 MHz) that short bursts of frames do not raise; the
+    GPU benchmarks run this before timing (without it an H100's frames on large
+    meshes came out 4-5x slower)."""
+    end = time.perf_counter() + seconds
+    while time.perf_counter() < end:
+        fn()
+
+
 # The passes of a frame as the core times them (CorrectionOptions::record_timings).
 PASSES = ("plan", "ffd", "coefficients", "solves", "gathers", "volume", "reorder")
 

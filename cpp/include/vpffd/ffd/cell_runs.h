@@ -380,7 +380,8 @@ void jacobian_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, 
   });
 }
 
-/// jacobian_kernel with E's cell runs: jacobian_runs where the order is uniform.
+/// J[v] = dD/dx for v in [b, e) (jacobian_points' layout): run by run
+/// (jacobian_runs) where the lattice's order is uniform, else point by point.
 inline void jacobian_kernel(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* Px,
                             const double* Py, const double* Pz, const Vector3d& du_dx, double* J, Index b, Index e,
                             Index j_first = 0) {

@@ -269,12 +269,4 @@ void jacobian_points(const BasisTables& T, const Embedding& E, const double* Px,
   }
 }
 
-/// J[v] = dD/dx at point v for v in [b, e) (see jacobian_points), on the
-/// uniform-order path when the lattice has one.
-inline void jacobian_kernel(const BasisTables& T, const Embedding& E, const double* Px, const double* Py,
-                            const double* Pz, const Vector3d& du_dx, double* J, Index b, Index e,
-                            Index j_first = 0) {
-  dispatch_order(T, [&](auto K) { jacobian_points<decltype(K)::value>(T, E, Px, Py, Pz, du_dx, J, b, e, j_first); });
-}
-
 }  // namespace vpffd::detail
