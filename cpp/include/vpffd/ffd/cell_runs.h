@@ -426,26 +426,35 @@ void scatter_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, W
     KVec m[K * K];
     for (auto& x : m) x.setZero();
     const double *tu = E.tau[0].data(), *tv = E.tau[1].data(), *tw = E.tau[2].data();
-    for (Index v = lo; v < hi; ++v) {
-      const double wv = weight(v);
-      // Powers of the local parameters: pu (times w), pv as scalars, pw as the
-      // vector along s, built in registers: lane s is the product of the factors
-      // (lane >= q ? tau : 1), q = 1..K-1, the same products as the scalar powers.
-      // (Lanes written one by one and read as a vector stall on store forwarding.)
-      double pu[K], pv[K];
-      pu[0] = wv;
-      pv[0] = 1.0;
-      for (int q = 1; q < K; ++q) {
-        pu[q] = pu[q - 1] * tu[v];
-        pv[q] = pv[q - 1] * tv[v];
+    // The weights of a block first, then its moments: weight() may be a loop of its
+    // own (a vertex's fan) whose branches, in the same loop, stalled the moments'
+    // multiply-adds (dragon, 1 thread: the xyz frame's coefficient passes 43 -> 36 ms).
+    // Same values, same order of additions: the same bits as point after point.
+    constexpr Index kBlock = 128;
+    alignas(32) double wb[kBlock];
+    for (Index v0 = lo; v0 < hi; v0 += kBlock) {
+      const Index n = std::min(kBlock, hi - v0);
+      for (Index i = 0; i < n; ++i) wb[i] = weight(v0 + i);
+      for (Index v = v0; v < v0 + n; ++v) {
+        // Powers of the local parameters: pu (times w), pv as scalars, pw as the
+        // vector along s, built in registers: lane s is the product of the factors
+        // (lane >= q ? tau : 1), q = 1..K-1, the same products as the scalar powers.
+        // (Lanes written one by one and read as a vector stall on store forwarding.)
+        double pu[K], pv[K];
+        pu[0] = wb[v - v0];
+        pv[0] = 1.0;
+        for (int q = 1; q < K; ++q) {
+          pu[q] = pu[q - 1] * tu[v];
+          pv[q] = pv[q - 1] * tv[v];
+        }
+        const KVec t = KVec::Constant(tw[v]);
+        KVec pw = KVec::Ones();
+        for (int q = 1; q < K; ++q) pw *= kPowerMask<K>[q] * t + kPowerFill<K>[q];
+        KVec vw[K];
+        for (int j = 0; j < K; ++j) vw[j] = pv[j] * pw;
+        for (int i = 0; i < K; ++i)
+          for (int j = 0; j < K; ++j) m[i * K + j] += pu[i] * vw[j];
       }
-      const KVec t = KVec::Constant(tw[v]);
-      KVec pw = KVec::Ones();
-      for (int q = 1; q < K; ++q) pw *= kPowerMask<K>[q] * t + kPowerFill<K>[q];
-      KVec vw[K];
-      for (int j = 0; j < K; ++j) vw[j] = pv[j] * pw;
-      for (int i = 0; i < K; ++i)
-        for (int j = 0; j < K; ++j) m[i * K + j] += pu[i] * vw[j];
     }
     for (int qr = 0; qr < K * K; ++qr) Eigen::Map<KVec>(M + qr * K) = m[qr];
     add_from_power<K>(run_basis<K>(T, R, r), M, si, sj, acc);
