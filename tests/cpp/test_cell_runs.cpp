@@ -236,6 +236,34 @@ TEST(VertexFans, ClosedManifoldVerticesAreOneCycle) {
   }
 }
 
+TEST(PaddedFans, RowsFitTheValences) {
+  // An icosphere's fans are 6 (valence 5) or 7 entries long: rows of 7, no tails.
+  const TriMesh m = icosphere(3);
+  const VertexFans fans = vertex_fans(vertex_rings(m.F, m.V.rows()));
+  const PaddedFans p = pad_fans(fans);
+  EXPECT_EQ(p.width, 7);
+  EXPECT_EQ(p.tail.size(), 0u);
+  for (Index v = 0; v < m.V.rows(); ++v) {
+    const Index len = fans.indptr[v + 1] - fans.indptr[v];
+    for (Index k = 0; k < 7; ++k)
+      EXPECT_EQ(p.head[7 * v + k], k < len ? fans.fan[fans.indptr[v] + k] : v);
+  }
+  // Rows of 3: every fan continues in its tail, in order.
+  const PaddedFans q = pad_fans(fans, 3);
+  for (Index v = 0; v < m.V.rows(); ++v) {
+    std::vector<std::int32_t> got(q.head.begin() + 3 * v, q.head.begin() + 3 * v + 3);
+    got.insert(got.end(), q.tail.begin() + q.tail_ptr[v], q.tail.begin() + q.tail_ptr[v + 1]);
+    EXPECT_EQ(got, std::vector<std::int32_t>(fans.fan.begin() + fans.indptr[v], fans.fan.begin() + fans.indptr[v + 1]));
+  }
+  EXPECT_THROW(pad_fans(fans, -1), InvalidInputError);
+  // A vertex no face uses has an empty fan: a row of itself, weight 0.
+  RowMatrixX3d V(m.V.rows() + 1, 3);
+  V << m.V, Eigen::RowVector3d(0.1, 0.2, 0.3);
+  const PaddedFans r = pad_fans(vertex_fans(vertex_rings(m.F, V.rows())));
+  for (int k = 0; k < r.width; ++k) EXPECT_EQ(r.head[r.width * m.V.rows() + k], m.V.rows());
+  EXPECT_EQ(detail::fan_weight<0>(V.data(), r, m.V.rows()), 0.0);
+}
+
 TEST(VertexFans, OpenAndNonManifoldVertices) {
   // Two cubes touching at a corner (a closed mesh with a non-manifold vertex), and
   // the same with two faces removed (boundary vertices, one with two gaps).
@@ -278,16 +306,26 @@ TEST(VertexFans, OpenAndNonManifoldVertices) {
   for (Index i = 0; i < X.rows(); ++i) X.row(i) = Xc.row(order[i]);
   const VertexRings rs = vertex_rings(Fs, X.rows());
   const VertexFans fs = vertex_fans(rs);
+  const PaddedFans pf = pad_fans(fs);
   const CellRuns runs = cell_runs(E);
   const Vector3d o = 0.5 * (L.box_min + L.box_max);
   for (int ax = 0; ax < 3; ++ax) {
     std::vector<double> wr(X.rows()), wf(X.rows());
     const AxisCoefficients r = coefficients_rings(T, E, rs, X.data(), ax, o, 1, false, wr.data());
-    const AxisCoefficients f = coefficients_fans(T, E, fs, X.data(), ax, o, 1, wf.data(), &runs);
+    const AxisCoefficients f = coefficients_fans(T, E, pf, X.data(), ax, o, 1, wf.data(), &runs);
     for (Index v = 0; v < X.rows(); ++v) EXPECT_NEAR(wf[v], wr[v], 1e-13);  // |w| ~ 0.1 here
     EXPECT_LE((r.alpha - f.alpha).cwiseAbs().maxCoeff(), 1e-13 * r.alpha.cwiseAbs().maxCoeff());
     EXPECT_LE(std::abs(r.volume - f.volume), 1e-13 * std::abs(r.volume));
     EXPECT_LE(std::abs(f.volume - signed_volume(X, Fs, o)), 1e-13 * std::abs(f.volume));
+    // Any row width gives the same terms in the same order: rows of 1 (every fan in
+    // its tail) to 16 (every fan padded; the separators of the two-cycle vertex too).
+    for (int width : {1, 2, 4, 16}) {
+      std::vector<double> ww(X.rows());
+      const AxisCoefficients g = coefficients_fans(T, E, pad_fans(fs, width), X.data(), ax, o, 1, ww.data(), &runs);
+      EXPECT_EQ(ww, wf) << "width " << width;
+      EXPECT_EQ(g.volume, f.volume) << "width " << width;
+      EXPECT_EQ((g.alpha - f.alpha).cwiseAbs().maxCoeff(), 0.0) << "width " << width;
+    }
   }
 
   // Open: two faces at vertex 0 removed, one from each octahedron.

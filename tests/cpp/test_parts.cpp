@@ -155,7 +155,7 @@ TEST(Parts, PartCoefficientsEqualStraightforwardSums) {
   const BasisTables& T = D.tables();
   const Embedding& E = D.processing_embedding();
   const VertexRings rings = vertex_rings(D.processing_faces(), n);
-  const VertexFans fans = vertex_fans(rings);
+  const PaddedFans fans = pad_fans(vertex_fans(rings));
   const CellRuns runs = cell_runs(E);
   const CsrMatrix B = D.basis_matrix();  // rows in the caller's vertex order
   for (int ax = 0; ax < 3; ++ax) {

@@ -87,6 +87,16 @@ TEST(Reorder, RelabelledFansComposeAndChainTheirRings) {
   const VertexFans once = permute_fans(base, o2, r2), twice = permute_fans(permute_fans(base, o1, r1), from, to, 2);
   EXPECT_EQ(once.indptr, twice.indptr);
   EXPECT_EQ(once.fan, twice.fan);
+  // The padded layout relabelled (what a Deformer keeps) equals the relabelled fans
+  // padded afresh, rows and tails, for rows shorter and longer than the fans.
+  for (int width : {2, 6, 9}) {
+    const PaddedFans want = pad_fans(once, width);
+    const PaddedFans got = permute_fans(permute_fans(pad_fans(base, width), o1, r1), from, to, 2);
+    EXPECT_EQ(got.width, width);
+    EXPECT_EQ(got.head, want.head) << width;
+    EXPECT_EQ(got.tail_ptr, want.tail_ptr) << width;
+    EXPECT_EQ(got.tail, want.tail) << width;
+  }
   // A relabelled fan is a fan of the relabelled mesh: its consecutive pairs are the
   // vertex's ring pairs (each face around it once, in its winding).
   RowMatrixX3i G(m.F.rows(), 3);

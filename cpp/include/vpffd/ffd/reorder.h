@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "vpffd/core/parallel.h"
+#include "vpffd/mesh/padded_fans.h"
 #include "vpffd/mesh/validate.h"
 
 namespace vpffd {
@@ -46,6 +47,25 @@ inline VertexFans permute_fans(const VertexFans& f, const std::vector<std::int32
                                const std::vector<std::int32_t>& to, int threads = 0) {
   VertexFans out;
   permute_lists(f.indptr, f.fan, 1, from, to, out.indptr, out.fan, threads);
+  return out;
+}
+
+/// permute_fans for the padded layout: rows and tails relabelled (a row's padding,
+/// the vertex itself, becomes its new index, as padding it afresh would give).
+inline PaddedFans permute_fans(const PaddedFans& f, const std::vector<std::int32_t>& from,
+                               const std::vector<std::int32_t>& to, int threads = 0) {
+  PaddedFans out;
+  out.width = f.width;
+  const Index n = static_cast<Index>(from.size()), w = f.width;
+  out.head.resize(f.head.size());
+  parallel_range(n, threads, [&](Index b, Index e) {
+    for (Index i = b; i < e; ++i) {
+      const std::int32_t* src = f.head.data() + Index(from[i]) * w;
+      std::int32_t* dst = out.head.data() + i * w;
+      for (Index k = 0; k < w; ++k) dst[k] = to[src[k]];
+    }
+  });
+  permute_lists(f.tail_ptr, f.tail, 1, from, to, out.tail_ptr, out.tail, threads);
   return out;
 }
 

@@ -158,10 +158,10 @@ class Deformer {
 
   /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
   /// vertex and face orders, the faces (as given, renumbered and, with parts, grouped
-  /// by part), the vertex fans (closed mesh, ~32) or rings (open, ~52), the cell runs,
-  /// the rest vertices and, once built, the vertex-face lists (about 185 bytes for a
-  /// closed mesh, F = 2V, with the lists; 28 less without); 36 more once the rest mesh
-  /// has moved (the next embedding's buffers).
+  /// by part), the vertex fans (closed mesh, ~32-40: rows of 7-9) or rings (open,
+  /// ~52), the cell runs, the rest vertices and, once built, the vertex-face lists
+  /// (about 190 bytes for a closed mesh, F = 2V, with the lists; 28 less without); 36
+  /// more once the rest mesh has moved (the next embedding's buffers).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size() + Fp_.size()) * per_int;
@@ -170,7 +170,7 @@ class Deformer {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       if (adjacency_) bytes += double(adjacency_->indptr.size() + adjacency_->faces.size()) * per_int;
     }
-    bytes += double(rings_.indptr.size() + rings_.pairs.size() + fans_.indptr.size() + fans_.fan.size()) * per_int;
+    bytes += double(rings_.indptr.size() + rings_.pairs.size()) * per_int + double(fans_.bytes());
     bytes += double(n_vertices() + spare_embedding_.size()) * Embedding::bytes_per_point;
     bytes += double(runs_.start.size()) * sizeof(Index) + double(3 * runs_.size()) * per_int;
     return bytes / double(n_vertices());
@@ -382,7 +382,7 @@ class Deformer {
     // each processing order.
     if (!moving) {
       if (is_closed())
-        fans_ = permute_fans(vertex_fans(vertex_rings(F_, nv)), order, rank, threads);
+        fans_ = pad_fans(permute_fans(vertex_fans(vertex_rings(F_, nv)), order, rank, threads), 0, threads);
       else
         rings_ = permute_rings(vertex_rings(F_, nv), order, rank, threads);
     } else if (is_closed()) {
@@ -584,7 +584,7 @@ class Deformer {
   mutable std::mutex adjacency_mutex_;
   mutable std::unique_ptr<VertexFaces> adjacency_;  ///< of Fs_, built on first use
   VertexRings rings_;  ///< of F_ relabelled by rank_, for an open mesh (empty for a closed one)
-  VertexFans fans_;    ///< of F_ relabelled by rank_, for a closed mesh (empty for an open one)
+  PaddedFans fans_;    ///< of F_ relabelled by rank_, for a closed mesh (empty for an open one)
   Vector3d origin_;
   double rest_volume_ = 0;
   bool has_parts_ = false;

@@ -12,6 +12,7 @@
 #include "vpffd/core/parallel.h"
 #include "vpffd/ffd/cell_runs.h"
 #include "vpffd/ffd/kernels.h"
+#include "vpffd/mesh/padded_fans.h"
 #include "vpffd/mesh/validate.h"
 #include "vpffd/sparse/spmv.h"
 #include "vpffd/mesh/volume.h"
@@ -78,25 +79,27 @@ inline double ring_weight(const double* X, const std::int32_t* ip, const std::in
   return w * (1.0 / 6.0);
 }
 
-/// ring_weight for a closed mesh (b = p_v) from the vertex's fans (VertexFans):
-/// each neighbour's two coordinates read once, the terms in fan order.
+/// ring_weight for a closed mesh (b = p_v) from the vertex's fan (PaddedFans: its
+/// row, a loop of fixed length, then the tail of a longer fan): each neighbour's two
+/// coordinates read once, the terms in fan order.
 template <int ax>
-VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const std::int32_t* ip, const std::int32_t* fan, Index v) {
+VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Index v) {
   constexpr int a1 = (ax + 1) % 3, a2 = (ax + 2) % 3;
-  std::int32_t p = ip[v];
-  const std::int32_t e = ip[v + 1];
-  if (p == e) return 0.0;  // a vertex no face uses
+  const int width = f.width;
+  const std::int32_t* row = f.head.data() + v * width;
   const double b1 = X[3 * v + a1], b2 = X[3 * v + a2];
-  const double* q = X + 3 * Index(fan[p]);
+  const double* q = X + 3 * Index(row[0]);
   double u1 = q[a1] - b1, u2 = q[a2] - b2;
   double w = 0;
-  for (++p; p < e; ++p) {
-    q = X + 3 * Index(fan[p]);
+  auto term = [&](std::int32_t n) {
+    q = X + 3 * Index(n);
     const double t1 = q[a1] - b1, t2 = q[a2] - b2;
     w += u1 * t2 - u2 * t1;
     u1 = t1;
     u2 = t2;
-  }
+  };
+  for (int k = 1; k < width; ++k) term(row[k]);
+  for (std::int32_t p = f.tail_ptr[v]; p < f.tail_ptr[v + 1]; ++p) term(f.tail[p]);
   return w * (1.0 / 6.0);
 }
 
@@ -227,19 +230,18 @@ inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding
 }
 
 /// coefficients_rings for a closed mesh (b = p_v) from the vertices' fans
-/// (VertexFans: each neighbour read once per vertex, not twice): the same
-/// coefficients, volume and weights up to rounding (the terms are added in fan
-/// order). The frame's coefficient pass on closed meshes.
-inline AxisCoefficients coefficients_fans(const BasisTables& T, const Embedding& E, const VertexFans& fans,
+/// (VertexFans, here in their padded layout: each neighbour read once per vertex,
+/// not twice, in loops of fixed length): the same coefficients, volume and weights
+/// up to rounding (the terms are added in fan order). The frame's coefficient pass
+/// on closed meshes.
+inline AxisCoefficients coefficients_fans(const BasisTables& T, const Embedding& E, const PaddedFans& fans,
                                           const double* X, int axis, const Vector3d& origin, int threads = 0,
                                           double* weights = nullptr, const CellRuns* runs = nullptr) {
-  VPFFD_CHECK(Index(fans.indptr.size()) == E.size() + 1, "coefficients_fans: fans of ",
-              Index(fans.indptr.size()) - 1, " vertices, the embedding has ", E.size());
-  const std::int32_t* ip = fans.indptr.data();
-  const std::int32_t* fan = fans.fan.data();
+  VPFFD_CHECK(fans.size() == E.size() && fans.width >= 1, "coefficients_fans: fans of ", fans.size(),
+              " vertices, the embedding has ", E.size());
   return detail::with_axis(axis, [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value;
-    auto weight_of = [&](Index v) { return detail::fan_weight<ax>(X, ip, fan, v); };
+    auto weight_of = [&](Index v) { return detail::fan_weight<ax>(X, fans, v); };
     return detail::weighted_scatter<ax>(T, E, runs, X, origin[ax], threads, weights, weight_of);
   });
 }

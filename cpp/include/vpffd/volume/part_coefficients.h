@@ -27,7 +27,7 @@ struct PartCoefficients {
 /// and the pieces are summed in order: same result for any thread count.
 /// @param part_start  K + 1 offsets into the processing order
 /// @param runs  if not null, E's cell runs (as coefficients_rings)
-inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embedding& E, const VertexFans& fans,
+inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embedding& E, const PaddedFans& fans,
                                                 const double* X, int axis, const Vector3d& origin,
                                                 const std::vector<Index>& part_start, int threads = 0,
                                                 const CellRuns* runs = nullptr) {
@@ -66,8 +66,6 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
   for (Piece& p : pieces)
     p.acc = pieces_of[p.part] > 1 ? buf.data() + (next++) * N : out.alpha.row(p.part).data();
 
-  const std::int32_t* ip = fans.indptr.data();
-  const std::int32_t* fan = fans.fan.data();
   const double o = origin[axis];
   auto pass = [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value;
@@ -81,7 +79,7 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
       double vsum = 0;
       auto weight = [&](Index v) {
         const double* pv = X + 3 * v;
-        const double w = detail::fan_weight<ax>(X, ip, fan, v);
+        const double w = detail::fan_weight<ax>(X, fans, v);
         vsum += (pv[ax] - o) * w;
         return w;
       };
