@@ -60,7 +60,7 @@ def frame_breakdown(d: Deformer, P, repeats: int, axes: str = "xyz", method: str
     """Median ms per pass of a frame over ``repeats`` runs (after one warm-up), and of
     the whole frame ("total"): ffd = plain FFD, coefficients = the weight and scatter
     passes of every axis step, solves = the closed-form offsets, gathers = the offset
-    fields at the vertices (the last fused with the volume and the reordering),
+    fields at the vertices (the last fused with the volume),
     volume = separate volume passes, reorder = the copy to the caller's vertex order."""
     Pf = d._P(P)
     opts = _core.CorrectionOptions(axes=axes, method=method, threads=d._threads, record_timings=True)

@@ -330,16 +330,14 @@ void gather_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, co
   });
 }
 
-/// gather_final_kernel run by run: moves point v by D along `axis`, writes it to
-/// row order[v] of `out` and returns sum_v w[v] (x_v[axis] - o) over [b, e), added
-/// point after point in processing order.
+/// gather_final_kernel run by run: moves point v by D along `axis` and returns
+/// sum_v w[v] (x_v[axis] - o) over [b, e), added point after point in processing order.
 template <int K>
-double gather_final_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* D,
-                         const double* X, int axis, const double* w, double o, const std::int32_t* order, double* out,
-                         Index b, Index e) {
+double gather_final_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const double* D, double* X,
+                         int axis, const double* w, double o, Index b, Index e) {
   double vsum = 0;
   eval_runs<K, 1>(T, E, R, {D}, b, e, [&](Index v, Index n, const std::array<Lanes, 1>& g) {
-    for (Index l = 0; l < n; ++l) vsum += move_final(X, v + l, axis, g[0][l], w, o, order, out);
+    for (Index l = 0; l < n; ++l) vsum += move_final(X, v + l, axis, g[0][l], w, o);
   });
   return vsum;
 }

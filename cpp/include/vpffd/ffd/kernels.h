@@ -180,30 +180,24 @@ void gather_kernel(const BasisTables& T, const Embedding& E, const double* D, do
   for (Index v = b; v < e; ++v) out[3 * v + axis] += gather_value<K>(T, E, D, v, si, sj);
 }
 
-/// One point of the last gather: x_v moved by g along `axis`, written to row
-/// order[v] of `out`; returns its volume term w[v] (x_v[axis] - o).
-VPFFD_ALWAYS_INLINE double move_final(const double* X, Index v, int axis, double g, const double* w, double o,
-                                      const std::int32_t* order, double* out) {
-  double p[3] = {X[3 * v], X[3 * v + 1], X[3 * v + 2]};
-  p[axis] += g;
-  double* q = out + 3 * Index(order[v]);
-  q[0] = p[0];
-  q[1] = p[1];
-  q[2] = p[2];
-  return w[v] * (p[axis] - o);
+/// One point of the last gather: x_v moved by g along `axis`, in place; returns its
+/// volume term w[v] (x_v[axis] - o).
+VPFFD_ALWAYS_INLINE double move_final(double* X, Index v, int axis, double g, const double* w, double o) {
+  double& x = X[3 * v + axis];
+  x += g;
+  return w[v] * (x - o);
 }
 
-/// The last gather of a frame, fused with what follows it: point v moves by the
-/// offset field D along `axis` and is written to row order[v] of `out` (the
-/// caller's order), and the return value is sum_v w[v] (x_v[axis] - o) over
+/// The last gather of a frame, fused with the volume: point v moves by the offset
+/// field D along `axis`, and the return value is sum_v w[v] (x_v[axis] - o) over
 /// [b, e). With w the weights of this axis (coefficients_rings), which do not
 /// depend on the `axis` coordinates, that sum is the corrected mesh's volume.
 template <int K>
-double gather_final_kernel(const BasisTables& T, const Embedding& E, const double* D, const double* X, int axis,
-                           const double* w, double o, const std::int32_t* order, double* out, Index b, Index e) {
+double gather_final_kernel(const BasisTables& T, const Embedding& E, const double* D, double* X, int axis,
+                           const double* w, double o, Index b, Index e) {
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
   double vsum = 0;
-  for (Index v = b; v < e; ++v) vsum += move_final(X, v, axis, gather_value<K>(T, E, D, v, si, sj), w, o, order, out);
+  for (Index v = b; v < e; ++v) vsum += move_final(X, v, axis, gather_value<K>(T, E, D, v, si, sj), w, o);
   return vsum;
 }
 
