@@ -23,7 +23,7 @@ BackendUnavailableError = _core.BackendUnavailableError
 # Memory a frame needs per control point: the control points in, the offsets and
 # corrected points out (on both sides of the binding), the weights, each axis step's
 # rows, weighted rows, coefficients and offsets, and one coefficient buffer per thread:
-# about 40 doubles. And per vertex, the Deformer's own data (bytes_per_vertex, about 150
+# about 40 doubles. And per vertex, the Deformer's own data (bytes_per_vertex, about 160
 # bytes) plus a frame's positions in processing and caller order and the result (72).
 _FRAME_BYTES_PER_CONTROL_POINT = 320
 _BYTES_PER_VERTEX = 256
