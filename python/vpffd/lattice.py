@@ -1,6 +1,7 @@
 """Trivariate B-spline lattices."""
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -252,7 +253,9 @@ class Lattice:
     @property
     def n_control_points(self) -> int:
         """Control points the user sets (the distinct ones of a periodic lattice)."""
-        return int(np.prod(self.shape))
+        # math.prod, not np.prod: read on every frame, where np.prod's ~15 us was a few
+        # per cent of a small mesh's frame.
+        return int(math.prod(self.shape))
 
     @property
     def periodic(self) -> str:
