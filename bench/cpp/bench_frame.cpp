@@ -6,7 +6,9 @@
 //   bench_frame [icosphere LEVEL | PLY_FILE] [REPEATS]
 //
 // Prints one line per backend: median milliseconds of the plain FFD and the xyz
-// frame, the volume error and, on Vulkan, the GPU time from timestamp queries.
+// frame, the volume error and, on Vulkan, the GPU time from timestamp queries; on the
+// CPU also the frame's passes (FFD, coefficient passes, solves, gathers, the copy to
+// the caller's order), medians of the frame's own clocks.
 
 #include <algorithm>
 #include <chrono>
@@ -97,6 +99,19 @@ int main(int argc, char** argv) {
       std::printf("%-28s %10.3f %12.3f %12s %12.1e\n",
                   (std::string("cpu, ") + std::to_string(vpffd::resolve_threads(threads)) + " thread(s)").c_str(),
                   t_ffd, t_xyz, "", std::abs(r.volume - r.target_volume) / r.target_volume);
+      // Where the frame goes, by its own clocks (medians): the rows an A/B of two
+      // builds compares (bench/README.md).
+      o.record_timings = true;
+      std::vector<double> pass[5];
+      for (int k = 0; k < repeats; ++k) {
+        const vpffd::FrameTimings tm = d.deform(P, o).timings;
+        const double v[5] = {tm.ffd, tm.coefficients, tm.solves, tm.gathers, tm.reorder};
+        for (int p = 0; p < 5; ++p) pass[p].push_back(v[p]);
+      }
+      for (auto& p : pass) std::nth_element(p.begin(), p.begin() + p.size() / 2, p.end());
+      std::printf("  passes ms: ffd %.3f  coefficients %.3f  solves %.3f  gathers %.3f  reorder %.3f\n",
+                  pass[0][repeats / 2], pass[1][repeats / 2], pass[2][repeats / 2], pass[3][repeats / 2],
+                  pass[4][repeats / 2]);
     }
 #ifdef VPFFD_HAS_VULKAN
     std::string why;

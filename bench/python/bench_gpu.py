@@ -52,25 +52,10 @@ import numpy as np
 
 import vpffd
 
-from vpffd.cli.benchmark import SHARED_MESHES, frame_edit as edit, median_ms, run_for
+from vpffd.cli.benchmark import SHARED_MESHES, cpu_model, frame_edit as edit, load_average as load, median_ms, run_for
 from vpffd.normals import angles_deg, deformed_normals
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def cpu_model():
-    """The CPU's model name (platform.processor() is empty on most Linux machines)."""
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
-def load():
-    return " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 def read_ply(path):

@@ -49,20 +49,6 @@ SHAPE = (10, 10, 10)
 ANGLE = 90.0
 
 
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
-def load_average() -> str:
-    return " ".join(f"{x:.2f}" for x in os.getloadavg())
-
-
 def install_peers(python: str) -> None:
     """Creates ./.venv-peers with ``python`` (Blender's wheels need 3.11) and installs bpy 5.0.x."""
     if not (PEERS / "bin" / "python").exists():
@@ -213,6 +199,7 @@ def main():
         print(f"no {PEERS} (run with --install-peers): measuring vpffd only", file=sys.stderr)
 
     import vpffd
+    from vpffd.cli.benchmark import cpu_model, load_average
     head = dict(machine=platform.node(), cpu=cpu_model(), cores_online=os.cpu_count(), cpus=cpus,
                 vpffd=vpffd.__version__, python=platform.python_version(), rounds=args.rounds,
                 repeats=args.repeats, lattice="x".join(map(str, SHAPE)) + " cubic B-spline", edit=f"twist {ANGLE:g} deg",

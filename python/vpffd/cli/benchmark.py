@@ -42,6 +42,23 @@ def median_ms(fn, repeats: int) -> float:
     return 1e3 * float(np.median(t))
 
 
+def cpu_model() -> str:
+    """The CPU's model name for a results file (platform.processor() is empty on most
+    Linux machines)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def load_average() -> str:
+    """The 1, 5 and 15-minute load averages, e.g. "0.52 0.61 0.70"."""
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
 def run_for(fn, seconds: float) -> None:
     """Calls fn() back to back for `seconds` (untimed). A GPU idles at a low clock
     (an H100 at 345 of 1980 MHz) that short bursts of frames do not raise; the
@@ -182,7 +199,7 @@ def run_benchmark(include_shared: bool = True, repeats: int = 7, with_csr: bool 
           f"{os.cpu_count()} cores, lattice {'x'.join(map(str, shape))} degree {degree}, "
           f"median of {repeats} runs (ms); twist 90 deg + squash 0.6")
     print(format_table(rows))
-    print(f"\nWhere an xyz frame goes (ms, medians; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())})")
+    print(f"\nWhere an xyz frame goes (ms, medians; load average {load_average()})")
     print(format_breakdown(rows))
     print("\nWhat Deformer.deform's options add to the xyz frame (ms over it, medians; normals=True, "
           "weights=\"auto\", on_fold=\"warn\")")
