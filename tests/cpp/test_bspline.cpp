@@ -191,6 +191,50 @@ TEST(BSpline, SpanLocatorLocateIsTheSearchUpToRounding) {
   }
 }
 
+// embed_into's loops (written to vectorise) against SpanLocator::locate of each point's
+// parameter, computed as ParameterMap does: the same bits, on uniform and non-uniform
+// knots, periodic axes, the box's faces and, extrapolated, points far outside.
+TEST(BSpline, EmbeddingIsEachPointLocated) {
+  std::mt19937 rng(11);
+  for (int variant = 0; variant < 4; ++variant) {
+    Lattice L = variant == 3 ? make_lattice(Vector3d(-1, -2, 0.5), Vector3d(3, 1, 2.5), {7, 5, 6}, {3, 2, 1},
+                                            {Seam::Shift, Seam::None, Seam::None})
+                             : make_lattice(Vector3d(-1, -2, 0.5), Vector3d(3, 1, 2.5), {7, 5, 6}, {3, 2, variant + 1});
+    if (variant == 1) L.knots[1][L.degree[1] + 1] += 0.07;  // a non-uniform axis
+    const OutsidePolicy policy = variant == 2 ? OutsidePolicy::Extrapolate : OutsidePolicy::Error;
+    const double reach = policy == OutsidePolicy::Extrapolate ? 3.0 : 0.0;  // box extents beyond
+    RowMatrixX3d X(3000, 3);
+    for (int a = 0; a < 3; ++a) {
+      const double lo = L.box_min[a], ext = L.box_max[a] - L.box_min[a];
+      std::uniform_real_distribution<double> U(lo - reach * ext, lo + (1 + reach) * ext);
+      for (Index i = 0; i < X.rows(); ++i) X(i, a) = U(rng);
+      X(a, a) = L.box_min[a];  // on the box's faces
+      X(3 + a, a) = L.box_max[a];
+      X(6 + a, a) = std::nextafter(L.box_max[a], -1e9);
+    }
+    const Embedding E = embed(L, X, policy, 2);
+    // embed_cells: the cells of that embedding, without it.
+    std::vector<std::int32_t> cells;
+    embed_cells(L, X, policy, cells, 2);
+    const BasisTables T = basis_tables(L);
+    ASSERT_EQ(Index(cells.size()), X.rows());
+    for (Index i = 0; i < X.rows(); ++i) ASSERT_EQ(cells[i], detail::cell_index(T, E, i)) << "point " << i;
+    const ParameterMap to_parameter(L);
+    for (int a = 0; a < 3; ++a) {
+      const SpanLocator locate(L.knots[a], L.dim(a), L.degree[a]);
+      for (Index i = 0; i < X.rows(); ++i) {
+        const Vector3d x = L.any_periodic() ? wrap_point(L, X.row(i).transpose()) : Vector3d(X.row(i).transpose());
+        double u = to_parameter(x)[a];
+        if (policy == OutsidePolicy::Error) u = std::min(std::max(u, L.domain_lo(a)), L.domain_hi(a));
+        double tau = 0;
+        const int s = locate.locate(u, tau);
+        ASSERT_EQ(E.span[a][i], s) << "variant " << variant << " axis " << a << " point " << i;
+        ASSERT_EQ(E.tau[a][i], tau) << "variant " << variant << " axis " << a << " point " << i;
+      }
+    }
+  }
+}
+
 TEST(BSpline, EmbeddingInAGivenOrderIsTheEmbeddingPermuted) {
   const TriMesh m = icosphere(2);
   const Lattice L = test::lattice_around(m.V, {5, 6, 7}, 3, 0.1);
@@ -221,6 +265,13 @@ TEST(BSpline, EmbeddingInAGivenOrderIsTheEmbeddingPermuted) {
   EXPECT_NE(plain.find("2 vertices lie outside"), std::string::npos) << plain;
   EXPECT_NE(plain.find("the first is vertex 7 at"), std::string::npos) << plain;
   EXPECT_EQ(ordered, plain);
+  std::vector<std::int32_t> cells;
+  try {
+    embed_cells(L, X, OutsidePolicy::Error, cells, 2);
+    ADD_FAILURE() << "embed_cells took vertices outside the box";
+  } catch (const InvalidInputError& e) {
+    EXPECT_EQ(std::string(e.what()), plain);
+  }
   X(7, 1) = std::nan("");
   try {
     embed_into(L, X, OutsidePolicy::Error, Eo, 1, "vertex", order.data());

@@ -142,6 +142,9 @@ struct SpanLocator {
     return s;
   }
 
+  /// Whether locate() takes the uniform path (for loops that inline it).
+  bool uniform() const { return uniform_; }
+
   int operator()(double u) const {
     // Outside [t_d, t_n) (ends, extrapolation, NaN): find_span's end rules.
     if (!(u >= lo && u < hi)) return end_span(u);
