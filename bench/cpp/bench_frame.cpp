@@ -8,7 +8,8 @@
 // Prints one line per backend: median milliseconds of the plain FFD and the xyz
 // frame, the volume error and, on Vulkan, the GPU time from timestamp queries; on the
 // CPU also the frame's passes (FFD, coefficient passes, solves, gathers, the copy to
-// the caller's order), medians of the frame's own clocks.
+// the caller's order), medians of the frame's own clocks, and the cost of moving the
+// rest mesh (set_rest_vertices).
 
 #include <algorithm>
 #include <chrono>
@@ -112,6 +113,20 @@ int main(int argc, char** argv) {
       std::printf("  passes ms: ffd %.3f  coefficients %.3f  solves %.3f  gathers %.3f  reorder %.3f\n",
                   pass[0][repeats / 2], pass[1][repeats / 2], pass[2][repeats / 2], pass[3][repeats / 2],
                   pass[4][repeats / 2]);
+      // Moving the rest mesh (set_rest_vertices, issue 13), on a Deformer of its own:
+      // back and forth between two positions 2 % of the mesh's size apart (inside the
+      // lattice's padding), so that vertices change cell every call and the processing
+      // order, faces and fans are carried over to a new order each time.
+      vpffd::Deformer dm(m.V, m.F, L, vpffd::OutsidePolicy::Error, threads);
+      vpffd::RowMatrixX3d X[2] = {m.V, m.V};
+      for (int k = 0; k < 2; ++k) {
+        const double s = k == 0 ? 0.01 : -0.01;
+        X[k].col(0).array() += s * (hi[0] - lo[0]);
+        X[k].col(1).array() += 0.5 * s * (hi[1] - lo[1]);
+      }
+      int step = 0;
+      const double t_move = median_ms([&] { dm.set_rest_vertices(X[step++ % 2], threads); }, repeats);
+      std::printf("  move rest mesh ms: %.3f (set_rest_vertices, the cell order changing every call)\n", t_move);
     }
 #ifdef VPFFD_HAS_VULKAN
     std::string why;

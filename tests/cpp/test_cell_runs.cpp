@@ -60,19 +60,34 @@ double evaluation_bound(const BasisTables& T, int K, double maxD) {
 
 TEST(CellRuns, RunsCoverThePointsCellByCell) {
   const Lattice L = make_lattice(Vector3d(-1, -1, -1), Vector3d(1, 2, 1), {6, 7, 5}, {3, 2, 3});
-  const Points p = random_points(L, 2000, false, 1);
-  ASSERT_EQ(p.runs.start.front(), 0);
-  ASSERT_EQ(p.runs.start.back(), p.E.size());
-  for (Index r = 0; r < p.runs.size(); ++r) {
-    ASSERT_LT(p.runs.start[r], p.runs.start[r + 1]);
-    for (Index v = p.runs.start[r]; v < p.runs.start[r + 1]; ++v)
-      for (int a = 0; a < 3; ++a) ASSERT_EQ(p.E.span[a][v], p.runs.span[a][r]);
-    if (r > 0) {  // maximal: two neighbouring runs differ in some span
-      bool differ = false;
-      for (int a = 0; a < 3; ++a) differ |= p.runs.span[a][r] != p.runs.span[a][r - 1];
-      EXPECT_TRUE(differ);
+  auto check = [](const Embedding& E, const CellRuns& R) {
+    ASSERT_EQ(R.start.front(), 0);
+    ASSERT_EQ(R.start.back(), E.size());
+    for (Index r = 0; r < R.size(); ++r) {
+      ASSERT_LT(R.start[r], R.start[r + 1]);
+      for (Index v = R.start[r]; v < R.start[r + 1]; ++v)
+        for (int a = 0; a < 3; ++a) ASSERT_EQ(E.span[a][v], R.span[a][r]);
+      if (r > 0) {  // maximal: two neighbouring runs differ in some span
+        bool differ = false;
+        for (int a = 0; a < 3; ++a) differ |= R.span[a][r] != R.span[a][r - 1];
+        ASSERT_TRUE(differ);
+      }
     }
+  };
+  const Points p = random_points(L, 2000, false, 1);
+  check(p.E, p.runs);
+  // Found by chunks of points in parallel: the same runs for any thread count, also
+  // where runs cross the chunks' boundaries (points in a few cells, 5 chunks).
+  const Lattice coarse = make_lattice(Vector3d(-1, -1, -1), Vector3d(1, 2, 1), {4, 4, 4}, {2, 2, 2});
+  const Points q = random_points(coarse, 41000, false, 2);
+  const Embedding unsorted = embed(coarse, RowMatrixX3d::Random(41000, 3) * 0.99, OutsidePolicy::Error, 1);
+  for (const Embedding* E : {&q.E, &unsorted}) {
+    const CellRuns one = cell_runs(*E, 1), two = cell_runs(*E, 2);
+    check(*E, two);
+    EXPECT_EQ(one.start, two.start);
+    for (int a = 0; a < 3; ++a) EXPECT_EQ(one.span[a], two.span[a]);
   }
+  EXPECT_LT(q.runs.size(), 100);  // long runs, across chunk boundaries
 }
 
 // For every uniform order 2..6: the run kernels give the per-point kernels' values

@@ -50,15 +50,25 @@ struct CellRuns {
 inline constexpr Index kShortRun = 32;
 
 /// The runs of E's points (in the order E holds them).
-inline CellRuns cell_runs(const Embedding& E) {
-  CellRuns R;
+/// Chunks of points find their runs' starts in parallel; the runs are the same for
+/// any thread count.
+inline CellRuns cell_runs(const Embedding& E, int threads = 1) {
   const Index n = E.size();
-  for (Index v = 0; v < n; ++v) {
-    if (v > 0 && E.span[0][v] == E.span[0][v - 1] && E.span[1][v] == E.span[1][v - 1] &&
-        E.span[2][v] == E.span[2][v - 1])
-      continue;
-    R.start.push_back(v);
-    for (int a = 0; a < 3; ++a) R.span[a].push_back(E.span[a][v]);
+  const int chunks = chunk_count(n);
+  std::vector<std::vector<Index>> starts(chunks);
+  parallel_chunks(n, chunks, threads, [&](int c, Index b, Index e) {
+    const std::int32_t *s0 = E.span[0].data(), *s1 = E.span[1].data(), *s2 = E.span[2].data();
+    for (Index v = b; v < e; ++v)
+      if (v == 0 || s0[v] != s0[v - 1] || s1[v] != s1[v - 1] || s2[v] != s2[v - 1]) starts[c].push_back(v);
+  });
+  CellRuns R;
+  Index total = 0;
+  for (const auto& s : starts) total += static_cast<Index>(s.size());
+  R.start.reserve(total + 1);
+  for (const auto& s : starts) R.start.insert(R.start.end(), s.begin(), s.end());
+  for (int a = 0; a < 3; ++a) {
+    R.span[a].resize(total);
+    for (Index r = 0; r < total; ++r) R.span[a][r] = E.span[a][R.start[r]];
   }
   R.start.push_back(n);
   return R;

@@ -50,11 +50,12 @@ inline VertexFans permute_fans(const VertexFans& f, const std::vector<std::int32
   return out;
 }
 
-/// permute_fans for the padded layout: rows and tails relabelled (a row's padding,
-/// the vertex itself, becomes its new index, as padding it afresh would give).
-inline PaddedFans permute_fans(const PaddedFans& f, const std::vector<std::int32_t>& from,
-                               const std::vector<std::int32_t>& to, int threads = 0) {
-  PaddedFans out;
+/// permute_fans for the padded layout, into `out` (its buffers reused when they have
+/// the size already, as a moving mesh's spare does): rows and tails relabelled (a
+/// row's padding, the vertex itself, becomes its new index, as padding it afresh
+/// would give).
+inline void permute_fans_into(const PaddedFans& f, const std::vector<std::int32_t>& from,
+                              const std::vector<std::int32_t>& to, PaddedFans& out, int threads = 0) {
   out.width = f.width;
   const Index n = static_cast<Index>(from.size()), w = f.width;
   out.head.resize(f.head.size());
@@ -66,6 +67,12 @@ inline PaddedFans permute_fans(const PaddedFans& f, const std::vector<std::int32
     }
   });
   permute_lists(f.tail_ptr, f.tail, 1, from, to, out.tail_ptr, out.tail, threads);
+}
+
+inline PaddedFans permute_fans(const PaddedFans& f, const std::vector<std::int32_t>& from,
+                               const std::vector<std::int32_t>& to, int threads = 0) {
+  PaddedFans out;
+  permute_fans_into(f, from, to, out, threads);
   return out;
 }
 

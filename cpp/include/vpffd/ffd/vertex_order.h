@@ -57,16 +57,14 @@ inline std::vector<std::int32_t> counting_sort(const std::vector<std::int32_t>& 
   return order;
 }
 
-/// Stable counting sort of the points by their cell.
-/// @param held  if not null, E's entry i is point (*held)[i] (an embedding kept in a
-///              previous processing order); the order is the same as for E in point order
+/// Stable counting sort of the points by their cell (lattice/embed.h's embed_cells
+/// gives the same cells straight from the points).
 /// @returns order: processing position -> original index
-inline std::vector<std::int32_t> cell_order(const BasisTables& T, const Embedding& E, int threads = 1,
-                                            const std::vector<std::int32_t>* held = nullptr) {
+inline std::vector<std::int32_t> cell_order(const BasisTables& T, const Embedding& E, int threads = 1) {
   const Index n = E.size();
   std::vector<std::int32_t> cell(n);
   parallel_range(n, threads, [&](Index b, Index e) {
-    for (Index i = b; i < e; ++i) cell[held ? Index((*held)[i]) : i] = detail::cell_index(T, E, i);
+    for (Index i = b; i < e; ++i) cell[i] = detail::cell_index(T, E, i);
   });
   return counting_sort(cell, Index(T.dims[0]) * T.dims[1] * T.dims[2], threads);
 }

@@ -160,8 +160,9 @@ class Deformer {
   /// vertex and face orders, the faces (as given, renumbered and, with parts, grouped
   /// by part), the vertex fans (closed mesh, ~32-40: rows of 7-9) or rings (open,
   /// ~52), the cell runs, the rest vertices and, once built, the vertex-face lists
-  /// (about 190 bytes for a closed mesh, F = 2V, with the lists; 28 less without); 36
-  /// more once the rest mesh has moved (the next embedding's buffers).
+  /// (about 190 bytes for a closed mesh, F = 2V, with the lists; 28 less without);
+  /// 72-80 more once the rest mesh has moved (the next move's buffers: embedding 36,
+  /// cells 4, fans).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size() + Fp_.size()) * per_int;
@@ -171,6 +172,7 @@ class Deformer {
       if (adjacency_) bytes += double(adjacency_->indptr.size() + adjacency_->faces.size()) * per_int;
     }
     bytes += double(rings_.indptr.size() + rings_.pairs.size()) * per_int + double(fans_.bytes());
+    bytes += double(spare_fans_.bytes()) + double(spare_cells_.size()) * per_int;
     bytes += double(n_vertices() + spare_embedding_.size()) * Embedding::bytes_per_point;
     bytes += double(runs_.start.size()) * sizeof(Index) + double(3 * runs_.size()) * per_int;
     return bytes / double(n_vertices());
@@ -295,12 +297,13 @@ class Deformer {
   void embed_rest(const Eigen::Ref<const RowMatrixX3d>& V, int threads, const char* where) {
     const Index nv = V.rows();
     const bool moving = !order_.empty();
-    // A move embeds straight into the current processing order (a row of V read per
-    // vertex, where permuting an embedding reads six arrays at random), into the
-    // spare buffers: nothing of the Deformer changes until the checks have passed.
-    Embedding& E = spare_embedding_;
+    // First only each vertex's cell, reading V in its own order (this pass checks V:
+    // the Deformer is unchanged if it throws); the embedding is computed afterwards,
+    // straight into the processing order sorted by these cells. (Embedding into the
+    // previous order and then permuting the six arrays cost twice as much.)
+    std::vector<std::int32_t>& cell = spare_cells_;
     try {
-      embed_into(lattice_, V, policy_, E, threads, "vertex", moving ? order_.data() : nullptr);
+      embed_cells(lattice_, V, policy_, cell, threads, "vertex");
     } catch (const InvalidInputError& e) {
       throw InvalidInputError(std::string(where) + ": " + e.what() + parts_outside(V));
     }
@@ -314,7 +317,8 @@ class Deformer {
     VPFFD_CHECK(std::isfinite(rest_volume), where, ": the mesh's enclosed volume overflows double precision (",
                 rest_volume, "; coordinates up to ", V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
     // Nothing below throws: the Deformer's state is replaced from here on.
-    V_ = V;
+    V_.resize(nv, 3);
+    parallel_range(nv, threads, [&](Index b, Index e) { V_.middleRows(b, e - b) = V.middleRows(b, e - b); });
     rest_volume_ = rest_volume;
     rest_part_volumes_ = std::move(part_rest);
     {
@@ -322,7 +326,9 @@ class Deformer {
       face_matrix_.reset();  // built from the old embedding
     }
     // Frames run in cell order (vertex_order.h); the faces are renumbered to match (below).
-    std::vector<std::int32_t> order = cell_order(tables_, E, threads, moving ? &order_ : nullptr);
+    std::vector<std::int32_t> order =
+        counting_sort(cell, Index(tables_.dims[0]) * tables_.dims[1] * tables_.dims[2], threads);
+    if (!moving) std::vector<std::int32_t>().swap(cell);  // kept only by a Deformer that moves
     const int K = parts_.count;
     std::vector<Index> part_start(K + 1, 0);
     if (has_parts_) {
@@ -339,17 +345,20 @@ class Deformer {
     } else {
       part_start[1] = nv;
     }
+    // V passed the same checks in embed_cells: this does not throw.
+    Embedding& E = spare_embedding_;
+    embed_into(lattice_, V, policy_, E, threads, "vertex", order.data());
+    std::swap(embedding_, E);  // E keeps the old buffers, for the next move
     // A moved object often keeps its processing order (no vertex changed cell, or all
-    // its vertices moved together): then the embedding, faces and fans are those it has.
+    // its vertices moved together): then the faces and fans are those it has.
     if (order == order_) {
-      std::swap(embedding_, E);
-      runs_ = cell_runs(embedding_);
+      runs_ = cell_runs(embedding_, threads);
       set_seam_shifts(V);
       return;
     }
     std::vector<std::int32_t> rank = inverse_order(order, threads);
-    // A move carries the embedding, faces and fans of the previous order over
-    // (reorder.h): old position -> new position, and new position -> old position.
+    // A move carries the faces and fans of the previous order over (reorder.h): old
+    // position -> new position, and new position -> old position.
     std::vector<std::int32_t> old_to_new, new_to_old;
     if (moving) {
       old_to_new.resize(nv);
@@ -361,10 +370,7 @@ class Deformer {
         }
       });
     }
-    // E's entry i is vertex order_[i] after a move, vertex i for a new mesh.
-    permute_embedding_into(E, moving ? new_to_old : order, embedding_, threads);
-    if (!moving) E = Embedding();  // kept only by a Deformer that moves
-    runs_ = cell_runs(embedding_);
+    runs_ = cell_runs(embedding_, threads);
     // The faces keep the mesh's order (each part's together, set in the constructor),
     // renumbered by processing position. Sorting them by their lowest vertex's position
     // made no face pass faster (measured, 1 thread, a face pass over cell-sorted
@@ -386,7 +392,8 @@ class Deformer {
       else
         rings_ = permute_rings(vertex_rings(F_, nv), order, rank, threads);
     } else if (is_closed()) {
-      fans_ = permute_fans(fans_, new_to_old, old_to_new, threads);
+      permute_fans_into(fans_, new_to_old, old_to_new, spare_fans_, threads);
+      std::swap(fans_, spare_fans_);
     } else {
       rings_ = permute_rings(rings_, new_to_old, old_to_new, threads);
     }
@@ -584,6 +591,8 @@ class Deformer {
   std::vector<std::int32_t> face_order_;  ///< face processing position -> face (fixed: set_face_order)
   Embedding embedding_;              ///< in processing order
   Embedding spare_embedding_;        ///< set_rest_vertices' buffers for the next embedding
+  std::vector<std::int32_t> spare_cells_;  ///< and for the vertices' cells
+  PaddedFans spare_fans_;            ///< and for the next relabelled fans
   CellRuns runs_;                    ///< embedding_'s cell runs
   RowMatrixX3i Fs_;                  ///< faces with processing-order indices
   RowMatrixX3i Fp_;                  ///< with parts: F_'s rows in face_order_ (the rest part volumes)
