@@ -299,8 +299,10 @@ class Deformer {
     const bool moving = !order_.empty();
     // First only each vertex's cell, reading V in its own order (this pass checks V:
     // the Deformer is unchanged if it throws); the embedding is computed afterwards,
-    // straight into the processing order sorted by these cells. (Embedding into the
-    // previous order and then permuting the six arrays cost twice as much.)
+    // straight into the processing order sorted by these cells. (This replaced
+    // embedding into the previous order, reading the cells back and permuting the six
+    // arrays; with the vectorised embedding loops a move became 0.73-0.82x as costly,
+    // bench/results/move_ab_vm.md.)
     std::vector<std::int32_t>& cell = spare_cells_;
     try {
       embed_cells(lattice_, V, policy_, cell, threads, "vertex");
