@@ -108,10 +108,12 @@ VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Inde
 /// of a fan lie anywhere in the processing order, and their loads, waited for one
 /// vertex at a time, bound the weight pass (dragon, 1 thread, the xyz frame's three
 /// coefficient passes: 34.8 -> 29.8 ms; 655k icosphere 42.8 -> 42.0).
-inline constexpr Index kFanPrefetch = 32;
+/// A mesh of fewer vertices has its coordinates in cache (24 bytes a vertex, 384 kB
+/// here): asking costs instructions and gains nothing.
+inline constexpr Index kFanPrefetch = 32, kFanPrefetchMin = 16384;
 VPFFD_ALWAYS_INLINE void prefetch_fan(const double* X, const PaddedFans& f, Index v) {
 #if defined(__GNUC__)
-  if (v >= f.size()) return;
+  if (f.size() < kFanPrefetchMin || v >= f.size()) return;
   const std::int32_t* row = f.head.data() + v * f.width;
   for (int k = 0; k < f.width; ++k) __builtin_prefetch(X + 3 * Index(row[k]));
 #else
