@@ -103,24 +103,6 @@ VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Inde
   return w * (1.0 / 6.0);
 }
 
-/// Asks for the rows of vertex v's fan (its padded row) to be brought into cache.
-/// The weight loops call it a fixed distance ahead (kFanPrefetch vertices): the rows
-/// of a fan lie anywhere in the processing order, and their loads, waited for one
-/// vertex at a time, bound the weight pass (dragon, 1 thread, the xyz frame's three
-/// coefficient passes: 34.8 -> 29.8 ms; 655k icosphere 42.8 -> 42.0).
-/// A mesh of fewer vertices has its coordinates in cache (24 bytes a vertex, 384 kB
-/// here): asking costs instructions and gains nothing.
-inline constexpr Index kFanPrefetch = 32, kFanPrefetchMin = 16384;
-VPFFD_ALWAYS_INLINE void prefetch_fan(const double* X, const PaddedFans& f, Index v) {
-#if defined(__GNUC__)
-  if (f.size() < kFanPrefetchMin || v >= f.size()) return;
-  const std::int32_t* row = f.head.data() + v * f.width;
-  for (int k = 0; k < f.width; ++k) __builtin_prefetch(X + 3 * Index(row[k]));
-#else
-  (void)X, (void)f, (void)v;
-#endif
-}
-
 /// Calls f(std::integral_constant<int, axis>{}): the axis as a compile-time
 /// constant, so coordinate reads in the weight loops are loads at fixed offsets.
 template <class F>
@@ -259,10 +241,7 @@ inline AxisCoefficients coefficients_fans(const BasisTables& T, const Embedding&
               " vertices, the embedding has ", E.size());
   return detail::with_axis(axis, [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value;
-    auto weight_of = [&](Index v) {
-      detail::prefetch_fan(X, fans, v + detail::kFanPrefetch);
-      return detail::fan_weight<ax>(X, fans, v);
-    };
+    auto weight_of = [&](Index v) { return detail::fan_weight<ax>(X, fans, v); };
     return detail::weighted_scatter<ax>(T, E, runs, X, origin[ax], threads, weights, weight_of);
   });
 }

@@ -79,7 +79,6 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
       double vsum = 0;
       auto weight = [&](Index v) {
         const double* pv = X + 3 * v;
-        detail::prefetch_fan(X, fans, v + detail::kFanPrefetch);
         const double w = detail::fan_weight<ax>(X, fans, v);
         vsum += (pv[ax] - o) * w;
         return w;
