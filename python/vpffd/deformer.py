@@ -25,8 +25,8 @@ BackendUnavailableError = _core.BackendUnavailableError
 # rows, weighted rows, coefficients and offsets, and one coefficient buffer per thread:
 # about 40 doubles. And per vertex, the Deformer's own data (bytes_per_vertex, about 160
 # bytes) plus a frame's positions in processing and caller order and the result (72).
-# A Deformer whose rest mesh has moved keeps 72-80 bytes more (the next move's buffers),
-# which this check at construction does not count.
+# A Deformer whose rest mesh has moved keeps 40 bytes more (the next move's embedding
+# and cells), which this check at construction does not count.
 _FRAME_BYTES_PER_CONTROL_POINT = 320
 _BYTES_PER_VERTEX = 256
 # With K parts an axis step holds K coefficient rows of N doubles, and the solve copies
@@ -183,8 +183,8 @@ class Deformer:
         order and rest volume(s), so an object can travel through the lattice frame
         by frame. On the CPU it costs each vertex's cell, a counting sort by cell, the
         embedding (straight into the sorted order), the rest volume, renumbering the
-        faces and carrying the vertex fans over from the previous order (nothing of
-        these two when no vertex changed its cell): 2-3 plain FFD frames, 0.5-0.8 of a
+        faces and relabelling the vertex fans in place (nothing of these two when no
+        vertex changed its cell): 2-3 plain FFD frames, 0.5-0.8 of a
         volume-preserving one on one thread. On "vulkan"
         only the vertices go to the device, which embeds them and sorts them by
         lattice cell itself, first thing in the next frame's submission (the rest

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <random>
 
 #include "helpers.h"
+#include "vpffd/ffd/reorder.h"
 
 using namespace vpffd;
 using namespace vpffd::test;
@@ -346,6 +348,21 @@ TEST(VertexFans, OpenAndNonManifoldVertices) {
       EXPECT_EQ(ww, wf) << "width " << width;
       EXPECT_EQ(g.volume, f.volume) << "width " << width;
       EXPECT_EQ((g.alpha - f.alpha).cwiseAbs().maxCoeff(), 0.0) << "width " << width;
+    }
+    // Rows stored in any order (row_vertex: the Deformer's weight order, rows padded
+    // with their own vertex): the same weights, hence the same bits.
+    std::vector<std::int32_t> rows(X.rows()), id(X.rows());
+    std::iota(rows.begin(), rows.end(), 0);
+    std::iota(id.begin(), id.end(), 0);
+    std::shuffle(rows.begin(), rows.end(), std::mt19937(ax + 1));
+    for (int width : {3, 16}) {
+      const PaddedFans shuffled = pad_fans(permute_fans(fs, rows, id), width, 1, rows.data());
+      std::vector<double> ws(X.rows());
+      const AxisCoefficients h =
+          coefficients_fans(T, E, shuffled, X.data(), ax, o, 1, ws.data(), &runs, rows.data());
+      EXPECT_EQ(ws, wf) << "width " << width;
+      EXPECT_EQ(h.volume, f.volume) << "width " << width;
+      EXPECT_EQ((h.alpha - f.alpha).cwiseAbs().maxCoeff(), 0.0) << "width " << width;
     }
   }
 

@@ -54,6 +54,35 @@ void expect_same_deformer(const Deformer& D, const Deformer& fresh, const RowMat
   EXPECT_EQ(a.part_volumes, b.part_volumes);
 }
 
+/// A closed UV sphere: `segments` triangles at each pole (valence `segments` there,
+/// fans longer than any padded row), valence 4-6 elsewhere.
+TriMesh uv_sphere(int rings, int segments) {
+  TriMesh m;
+  const Index nv = 2 + Index(rings - 1) * segments;
+  m.V.resize(nv, 3);
+  m.V.row(0) << 0, 0, 1;
+  m.V.row(nv - 1) << 0, 0, -1;
+  auto idx = [&](int i, int j) { return static_cast<int>(1 + Index(i - 1) * segments + (j % segments)); };
+  for (int i = 1; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      const double t = M_PI * i / rings, p = 2 * M_PI * j / segments;
+      m.V.row(idx(i, j)) << std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t);
+    }
+  std::vector<Eigen::RowVector3i> F;
+  const int south = static_cast<int>(nv - 1);
+  for (int j = 0; j < segments; ++j) {
+    F.emplace_back(0, idx(1, j), idx(1, j + 1));
+    for (int i = 1; i + 1 < rings; ++i) {
+      F.emplace_back(idx(i, j), idx(i + 1, j), idx(i + 1, j + 1));
+      F.emplace_back(idx(i, j), idx(i + 1, j + 1), idx(i, j + 1));
+    }
+    F.emplace_back(idx(rings - 1, j), south, idx(rings - 1, j + 1));
+  }
+  m.F.resize(Index(F.size()), 3);
+  for (size_t f = 0; f < F.size(); ++f) m.F.row(Index(f)) = F[f];
+  return m;
+}
+
 }  // namespace
 
 TEST(Reorder, CountingSortIsTheStableSortForAnyThreadCount) {
@@ -69,6 +98,80 @@ TEST(Reorder, CountingSortIsTheStableSortForAnyThreadCount) {
       std::stable_sort(want.begin(), want.end(), [&](std::int32_t a, std::int32_t b) { return key[a] < key[b]; });
       for (int threads : {1, 2, 3, 8}) ASSERT_EQ(counting_sort(key, n_keys, threads), want) << n << " " << n_keys;
     }
+}
+
+TEST(Reorder, OrderWithinRunsSortsEachRunStablyByKey) {
+  // Runs of 1 to 5,000 items (short ones sorted by insertion, long ones by counting),
+  // keys from few to all 256 values: each run's positions, stably sorted by the key of
+  // their item, for any thread count.
+  std::mt19937 rng(5);
+  for (const int n_keys : {1, 4, 64, 256}) {
+    std::vector<Index> start{0};
+    while (start.back() < 60000) {
+      const Index len = rng() % 3 == 0 ? 1 + Index(rng() % 5000) : 1 + Index(rng() % 40);
+      start.push_back(start.back() + len);
+    }
+    const Index n = start.back();
+    const std::vector<std::int32_t> order = random_order(n, rng);
+    std::vector<std::uint8_t> key(n);
+    for (auto& k : key) k = static_cast<std::uint8_t>(rng() % n_keys);
+    std::vector<std::int32_t> want(n);
+    std::iota(want.begin(), want.end(), 0);
+    for (size_t r = 0; r + 1 < start.size(); ++r)
+      std::stable_sort(want.begin() + start[r], want.begin() + start[r + 1],
+                       [&](std::int32_t a, std::int32_t b) { return key[order[a]] < key[order[b]]; });
+    for (int threads : {1, 2, 3, 8}) ASSERT_EQ(order_within_runs(start, order, key, threads), want) << n_keys;
+  }
+  EXPECT_TRUE(order_within_runs({0}, {}, {}, 2).empty());
+}
+
+TEST(Reorder, ListsAndFansRelabelledAlikeForAnyThreadCount) {
+  // Lists of 0 to 11 items over more lists than one chunk: the chunks find their
+  // offsets in parallel.
+  std::mt19937 rng(7);
+  const Index n = 50001;
+  std::vector<std::int32_t> indptr{0}, items;
+  for (Index i = 0; i < n; ++i) {
+    const int len = static_cast<int>(rng() % 12);
+    for (int k = 0; k < len; ++k) items.push_back(static_cast<std::int32_t>(rng() % n));
+    indptr.push_back(static_cast<std::int32_t>(items.size()));
+  }
+  const std::vector<std::int32_t> from = random_order(n, rng), to = random_order(n, rng);
+  std::vector<std::int32_t> want_ptr{0}, want;
+  for (Index i = 0; i < n; ++i) {
+    for (std::int32_t p = indptr[from[i]]; p < indptr[from[i] + 1]; ++p) want.push_back(to[items[p]]);
+    want_ptr.push_back(static_cast<std::int32_t>(want.size()));
+  }
+  for (int threads : {1, 2, 3}) {
+    std::vector<std::int32_t> got_ptr, got;
+    permute_lists(indptr, items, 1, from, to, got_ptr, got, threads);
+    ASSERT_EQ(got_ptr, want_ptr) << threads;
+    ASSERT_EQ(got, want) << threads;
+  }
+  // relabel_fans: the entries through `to`, the rows where they are (padding included).
+  const TriMesh m = icosphere(4);
+  const Index nv = m.V.rows();
+  const VertexFans fans = vertex_fans(vertex_rings(m.F, nv));
+  const std::vector<std::int32_t> rows = random_order(nv, rng), relabel = random_order(nv, rng);
+  std::vector<std::int32_t> identity(nv);
+  std::iota(identity.begin(), identity.end(), 0);
+  for (int width : {3, 7, 9}) {
+    // Rows in another order than their vertices, padded with their own vertex.
+    const PaddedFans p = pad_fans(permute_fans(fans, rows, identity), width, 1, rows.data());
+    for (Index j = 0; j < nv; ++j) {
+      const Index len = fans.indptr[rows[j] + 1] - fans.indptr[rows[j]];
+      for (Index k = 0; k < width; ++k)
+        ASSERT_EQ(p.head[j * width + k], k < len ? fans.fan[fans.indptr[rows[j]] + k] : rows[j]) << j;
+    }
+    const PaddedFans want_fans = permute_fans(p, identity, relabel, 1);
+    for (int threads : {1, 2}) {
+      PaddedFans got_fans = p;
+      relabel_fans(got_fans, relabel, threads);
+      EXPECT_EQ(got_fans.head, want_fans.head) << width;
+      EXPECT_EQ(got_fans.tail_ptr, want_fans.tail_ptr) << width;
+      EXPECT_EQ(got_fans.tail, want_fans.tail) << width;
+    }
+  }
 }
 
 TEST(Reorder, RelabelledFansComposeAndChainTheirRings) {
@@ -132,6 +235,37 @@ TEST(MovingRest, KeptAndChangedOrdersEqualAFreshDeformer) {
     D.set_rest_vertices(X, step % 2 + 1);
     EXPECT_NE(D.processing_order(), before) << "step " << step << " was to change the order";
     expect_same_deformer(D, Deformer(X, m.F, L, OutsidePolicy::Error, 1), X, P);
+  }
+}
+
+TEST(MovingRest, FansOfMixedLengthsStayInTheirRowsThroughMoves) {
+  // A closed mesh whose fans differ in length (poles of valence 48, the rest 4-6): its
+  // fan rows are laid out once, by valence within each cell of the first order, and
+  // keep their vertices through moves. Each moved Deformer must still equal a fresh
+  // one bit for bit, and its coefficients the pairs' (vertex_rings) to rounding.
+  const TriMesh m = uv_sphere(14, 48);
+  ASSERT_TRUE(edge_report(m.F).closed());
+  const Lattice L = lattice_around(m.V, {5, 6, 5}, 3, 0.6);
+  const RowMatrixX3d P = twist(squashed(L, 0.8), 0.7, 2, 0.5 * (L.box_min + L.box_max));
+  Deformer D(m.V, m.F, L, OutsidePolicy::Error, 2);
+  const Vector3d o = D.origin();
+  for (int step = 0; step <= 4; ++step) {
+    // Back and forth, up to ~1.3 cells: most vertices change cell at some step.
+    const RowMatrixX3d X = moved(m.V, Vector3d(0.3, -0.2, 0.25) * ((step % 3) - 0.7 * (step / 3)), 0.003 * step);
+    if (step > 0) D.set_rest_vertices(X, step % 2 + 1);
+    const Deformer fresh(X, m.F, L, OutsidePolicy::Error, 1);
+    expect_same_deformer(D, fresh, X, P);
+    const RowMatrixX3d Y = ffd_points(L, P, X);
+    for (int a = 0; a < 3; ++a) {
+      const AxisCoefficients c = D.volume_coefficients(Y, a);
+      Embedding E = fresh.processing_embedding();
+      RowMatrixX3d Ys(Y.rows(), 3);
+      for (Index i = 0; i < Y.rows(); ++i) Ys.row(i) = Y.row(fresh.processing_order()[i]);
+      const AxisCoefficients r = coefficients_rings(fresh.tables(), E, vertex_rings(fresh.processing_faces(), Y.rows()),
+                                                    Ys.data(), a, o, 1);
+      EXPECT_LE((c.alpha - r.alpha).cwiseAbs().maxCoeff(), 1e-13 * r.alpha.cwiseAbs().maxCoeff()) << step;
+      EXPECT_LE(std::abs(c.volume - r.volume), 1e-13 * std::abs(r.volume)) << step;
+    }
   }
 }
 

@@ -21,26 +21,40 @@
 namespace vpffd {
 
 /// Per-vertex lists (CSR: items [stride * indptr[v], stride * indptr[v+1]) belong to
-/// vertex v) moved to a new numbering: new vertex i gets the list of old vertex
-/// from[i] with every item j replaced by to[j]. The order inside a list is kept.
-/// @param from  new index -> old index (a permutation)
-/// @param to    old index -> new index (its inverse)
+/// list v) moved to a new numbering: new list i is old list from[i] with every item
+/// j replaced by to[j]. The order inside a list is kept.
+/// @param from  new list -> old list (a permutation)
+/// @param to    old item -> new item (a vertex numbering: the inverse of `from` where
+///              lists and items are numbered alike)
+/// Chunks of lists find their offsets in parallel (their lengths summed per chunk,
+/// then the chunks' starts).
 inline void permute_lists(const std::vector<std::int32_t>& indptr, const std::vector<std::int32_t>& items, int stride,
                           const std::vector<std::int32_t>& from, const std::vector<std::int32_t>& to,
                           std::vector<std::int32_t>& out_indptr, std::vector<std::int32_t>& out_items,
                           int threads = 0) {
   const Index n = static_cast<Index>(from.size());
   out_indptr.resize(n + 1);
-  out_indptr[0] = 0;
-  for (Index i = 0; i < n; ++i) out_indptr[i + 1] = out_indptr[i] + (indptr[from[i] + 1] - indptr[from[i]]);
   out_items.resize(items.size());
-  parallel_range(n, threads, [&](Index b, Index e) {
+  const int chunks = chunk_count(n);
+  std::vector<std::int32_t> chunk_start(chunks + 1, 0);
+  parallel_chunks(n, chunks, threads, [&](int c, Index b, Index e) {
+    std::int32_t len = 0;
+    for (Index i = b; i < e; ++i) len += indptr[from[i] + 1] - indptr[from[i]];
+    chunk_start[c + 1] = len;
+  });
+  for (int c = 0; c < chunks; ++c) chunk_start[c + 1] += chunk_start[c];
+  parallel_chunks(n, chunks, threads, [&](int c, Index b, Index e) {
+    std::int32_t at = chunk_start[c];
     for (Index i = b; i < e; ++i) {
-      const Index src = Index(stride) * indptr[from[i]], len = Index(stride) * (indptr[from[i] + 1] - indptr[from[i]]);
-      std::int32_t* dst = out_items.data() + Index(stride) * out_indptr[i];
-      for (Index k = 0; k < len; ++k) dst[k] = to[items[src + k]];
+      out_indptr[i] = at;
+      const Index src = Index(stride) * indptr[from[i]];
+      const std::int32_t len = indptr[from[i] + 1] - indptr[from[i]];
+      std::int32_t* dst = out_items.data() + Index(stride) * at;
+      for (Index k = 0; k < Index(stride) * len; ++k) dst[k] = to[items[src + k]];
+      at += len;
     }
   });
+  out_indptr[n] = chunk_start[chunks];
 }
 
 inline VertexFans permute_fans(const VertexFans& f, const std::vector<std::int32_t>& from,
@@ -67,6 +81,17 @@ inline void permute_fans_into(const PaddedFans& f, const std::vector<std::int32_
     }
   });
   permute_lists(f.tail_ptr, f.tail, 1, from, to, out.tail_ptr, out.tail, threads);
+}
+
+/// The padded fans' entries relabelled in place, rows where they are: entry j ->
+/// to[j] (a move's old -> new processing position; a row's padding, its vertex,
+/// becomes that vertex's new position as padding it afresh would give).
+inline void relabel_fans(PaddedFans& f, const std::vector<std::int32_t>& to, int threads = 0) {
+  const Index n = f.size(), w = f.width;
+  parallel_range(n, threads, [&](Index b, Index e) {
+    for (Index k = b * w; k < e * w; ++k) f.head[k] = to[f.head[k]];
+    for (Index k = f.tail_ptr[b]; k < f.tail_ptr[e]; ++k) f.tail[k] = to[f.tail[k]];
+  });
 }
 
 inline PaddedFans permute_fans(const PaddedFans& f, const std::vector<std::int32_t>& from,

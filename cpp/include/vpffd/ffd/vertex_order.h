@@ -10,6 +10,7 @@
 /// is thousands long.
 
 #include <algorithm>
+#include <cstdint>
 #include <vector>
 
 #include "vpffd/core/parallel.h"
@@ -76,6 +77,50 @@ inline std::vector<std::int32_t> inverse_order(const std::vector<std::int32_t>& 
     for (Index i = b; i < e; ++i) rank[order[i]] = static_cast<std::int32_t>(i);
   });
   return rank;
+}
+
+/// The positions of each run [start[r], start[r+1]) stably sorted by a small key of
+/// the item at that position, key[order[i]] (0..255): run by run, position ->
+/// position. The Deformer's weight order: each cell's vertices by valence.
+/// The keys are read once, in position order; a run's keys are counted over their
+/// own range (a run of a few items does not clear 256 counters), and a short run is
+/// sorted by insertion. Chunks of positions take the runs that start in them.
+inline std::vector<std::int32_t> order_within_runs(const std::vector<Index>& start,
+                                                   const std::vector<std::int32_t>& order,
+                                                   const std::vector<std::uint8_t>& key, int threads = 1) {
+  const Index n = static_cast<Index>(order.size());
+  std::vector<std::int32_t> out(n);
+  std::vector<std::uint8_t> k(n);
+  parallel_range(n, threads, [&](Index b, Index e) {
+    for (Index i = b; i < e; ++i) k[i] = key[order[i]];
+  });
+  const Index runs = static_cast<Index>(start.size()) - 1;
+  parallel_range(n, threads, [&](Index b, Index e) {
+    Index count[257];
+    Index r = std::lower_bound(start.begin(), start.end() - 1, b) - start.begin();
+    for (; r < runs && start[r] < e; ++r) {
+      const Index s = start[r], t = start[r + 1];
+      std::int32_t* o = out.data() + s;
+      if (t - s <= 32) {
+        for (Index i = s; i < t; ++i) {
+          Index j = i - s;
+          for (; j > 0 && k[o[j - 1]] > k[i]; --j) o[j] = o[j - 1];
+          o[j] = static_cast<std::int32_t>(i);
+        }
+        continue;
+      }
+      int lo = 255, hi = 0;
+      for (Index i = s; i < t; ++i) {
+        lo = std::min<int>(lo, k[i]);
+        hi = std::max<int>(hi, k[i]);
+      }
+      std::fill(count + lo, count + hi + 2, Index(0));
+      for (Index i = s; i < t; ++i) ++count[k[i] + 1];
+      for (int q = lo; q <= hi; ++q) count[q + 1] += count[q];
+      for (Index i = s; i < t; ++i) o[count[k[i]]++] = static_cast<std::int32_t>(i);
+    }
+  });
+  return out;
 }
 
 /// out[i] = E[order[i]] (order: new position -> old index); out's buffers are

@@ -157,22 +157,22 @@ class Deformer {
   }
 
   /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
-  /// vertex and face orders, the faces (as given, renumbered and, with parts, grouped
-  /// by part), the vertex fans (closed mesh, ~32-40: rows of 7-9) or rings (open,
-  /// ~52), the cell runs, the rest vertices and, once built, the vertex-face lists
-  /// (about 190 bytes for a closed mesh, F = 2V, with the lists; 28 less without);
-  /// 72-80 more once the rest mesh has moved (the next move's buffers: embedding 36,
-  /// cells 4, fans).
+  /// vertex and face orders (and a closed mesh's weight order, 4), the faces (as
+  /// given, renumbered and, with parts, grouped by part), the vertex fans (closed
+  /// mesh, ~28-36: rows of 6-7 and tails) or rings (open, ~52), the cell runs, the
+  /// rest vertices and, once built, the vertex-face lists (about 190 bytes for a
+  /// closed mesh, F = 2V, with the lists; 28 less without); 40 more once the rest
+  /// mesh has moved (the next move's buffers: embedding 36, cells 4).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size() + Fp_.size()) * per_int;
-    bytes += double(order_.size() + rank_.size() + face_order_.size()) * per_int;
+    bytes += double(order_.size() + rank_.size() + face_order_.size() + weight_order_.size()) * per_int;
     {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       if (adjacency_) bytes += double(adjacency_->indptr.size() + adjacency_->faces.size()) * per_int;
     }
     bytes += double(rings_.indptr.size() + rings_.pairs.size()) * per_int + double(fans_.bytes());
-    bytes += double(spare_fans_.bytes()) + double(spare_cells_.size()) * per_int;
+    bytes += double(spare_cells_.size()) * per_int;
     bytes += double(n_vertices() + spare_embedding_.size()) * Embedding::bytes_per_point;
     bytes += double(runs_.start.size()) * sizeof(Index) + double(3 * runs_.size()) * per_int;
     return bytes / double(n_vertices());
@@ -387,15 +387,30 @@ class Deformer {
     // cone weights need the pairs (VertexFans' separators add zero only with b = p_v).
     // Both are built once, in the mesh's own numbering (from F_ in its face order, so
     // the terms of a weight come in an order no move changes), and relabelled into
-    // each processing order.
+    // each processing order. The fans' rows are stored in the first processing
+    // order's runs, each run's vertices by valence (weight_order_), and keep their
+    // vertices through every move: a move relabels the entries in place.
     if (!moving) {
-      if (is_closed())
-        fans_ = pad_fans(permute_fans(vertex_fans(vertex_rings(F_, nv)), order, rank, threads), 0, threads);
-      else
+      if (is_closed()) {
+        std::vector<std::uint8_t> valence(nv, 0);  // faces at each vertex (63 for more)
+        for (Index f = 0; f < F_.rows(); ++f)
+          for (int c = 0; c < 3; ++c) {
+            std::uint8_t& k = valence[F_(f, c)];
+            k = static_cast<std::uint8_t>(std::min(k + 1, 63));
+          }
+        weight_order_ = order_within_runs(runs_.start, order, valence, threads);
+        std::vector<std::int32_t> row_vertex(nv);
+        for (Index j = 0; j < nv; ++j) row_vertex[j] = order[weight_order_[j]];
+        fans_ = pad_fans(permute_fans(vertex_fans(vertex_rings(F_, nv)), row_vertex, rank, threads), 0, threads,
+                         weight_order_.data());
+      } else {
         rings_ = permute_rings(vertex_rings(F_, nv), order, rank, threads);
+      }
     } else if (is_closed()) {
-      permute_fans_into(fans_, new_to_old, old_to_new, spare_fans_, threads);
-      std::swap(fans_, spare_fans_);
+      relabel_fans(fans_, old_to_new, threads);
+      parallel_range(nv, threads, [&](Index b, Index e) {
+        for (Index j = b; j < e; ++j) weight_order_[j] = old_to_new[weight_order_[j]];
+      });
     } else {
       rings_ = permute_rings(rings_, new_to_old, old_to_new, threads);
     }
@@ -577,7 +592,9 @@ class Deformer {
                                 double* weights = nullptr) const {
     if (!is_closed()) check_method(method);
     if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, Fs_, axis, origin_, threads);
-    if (is_closed()) return coefficients_fans(tables_, embedding_, fans_, X, axis, origin_, threads, weights, &runs_);
+    if (is_closed())
+      return coefficients_fans(tables_, embedding_, fans_, X, axis, origin_, threads, weights, &runs_,
+                               weight_order_.data());
     return coefficients_rings(tables_, embedding_, rings_, X, axis, origin_, threads, true, weights, &runs_);
   }
 
@@ -590,11 +607,19 @@ class Deformer {
   BasisTables tables_;
   std::vector<std::int32_t> order_;  ///< processing position -> vertex
   std::vector<std::int32_t> rank_;   ///< vertex -> processing position
+  /// Closed mesh: fan row -> processing position. The weight passes go row by row:
+  /// the rows were laid out in the first processing order's runs (cells), by valence
+  /// within a run (order_within_runs), so a vertex's fan is as long as the one
+  /// before it for long stretches; the loop's trip count is predicted and the rows
+  /// need no padding for the longer fans (padded_fans.h). Scatter, gathers and
+  /// volume keep the processing order; the weights are the same numbers in any row
+  /// order, so the results do not depend on it. Dragon, 1 thread, the xyz frame's
+  /// coefficient passes 0.88x (bench/results/frame_ab_vm.md, 2026-11-25).
+  std::vector<std::int32_t> weight_order_;
   std::vector<std::int32_t> face_order_;  ///< face processing position -> face (fixed: set_face_order)
   Embedding embedding_;              ///< in processing order
   Embedding spare_embedding_;        ///< set_rest_vertices' buffers for the next embedding
   std::vector<std::int32_t> spare_cells_;  ///< and for the vertices' cells
-  PaddedFans spare_fans_;            ///< and for the next relabelled fans
   CellRuns runs_;                    ///< embedding_'s cell runs
   RowMatrixX3i Fs_;                  ///< faces with processing-order indices
   RowMatrixX3i Fp_;                  ///< with parts: F_'s rows in face_order_ (the rest part volumes)
@@ -787,7 +812,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       AxisStep info;
       info.axis = a;
       const PartCoefficients co = part_coefficients_rings(tables_, embedding_, fans_, X, a, origin_, part_start_,
-                                                          threads, &runs_);
+                                                          threads, &runs_, weight_order_.data());
       lap(tm.coefficients);
       info.volume_before = co.volume.sum();
       // Equal shares of what each part still misses: after the last axis every part is at its target.
@@ -830,12 +855,16 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     // (the volume is linear in that axis's coordinates, V = sum_v (x_v - o) w_v).
     const bool fused = opt.method == CoefficientMethod::Traversal;
     std::vector<double> w(fused ? n_vertices() : 0);
+    // A closed mesh's coefficient passes write their weights somewhere in any case
+    // (coefficients_fans): into w, one buffer for all steps.
+    const bool weights_always = fused && is_closed();
     for (int step = 0; step < k; ++step) {
       const int a = opt.axes[step % naxes];
       const bool last = step == k - 1;
       AxisStep info;
       info.axis = a;
-      const AxisCoefficients co = coefficients(X, a, opt.method, threads, last && fused ? w.data() : nullptr);
+      const AxisCoefficients co =
+          coefficients(X, a, opt.method, threads, (last && fused) || weights_always ? w.data() : nullptr);
       lap(tm.coefficients);
       info.volume_before = co.volume;
       if (step == 0) res.volume_before = co.volume;

@@ -81,12 +81,13 @@ inline double ring_weight(const double* X, const std::int32_t* ip, const std::in
 
 /// ring_weight for a closed mesh (b = p_v) from the vertex's fan (PaddedFans: its
 /// row, a loop of fixed length, then the tail of a longer fan): each neighbour's two
-/// coordinates read once, the terms in fan order.
+/// coordinates read once, the terms in fan order. `r` is the fan's row (v where the
+/// rows are in vertex order).
 template <int ax>
-VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Index v) {
+VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Index v, Index r) {
   constexpr int a1 = (ax + 1) % 3, a2 = (ax + 2) % 3;
   const int width = f.width;
-  const std::int32_t* row = f.head.data() + v * width;
+  const std::int32_t* row = f.head.data() + r * width;
   const double b1 = X[3 * v + a1], b2 = X[3 * v + a2];
   const double* q = X + 3 * Index(row[0]);
   double u1 = q[a1] - b1, u2 = q[a2] - b2;
@@ -99,8 +100,26 @@ VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Inde
     u2 = t2;
   };
   for (int k = 1; k < width; ++k) term(row[k]);
-  for (std::int32_t p = f.tail_ptr[v]; p < f.tail_ptr[v + 1]; ++p) term(f.tail[p]);
+  for (std::int32_t p = f.tail_ptr[r]; p < f.tail_ptr[r + 1]; ++p) term(f.tail[p]);
   return w * (1.0 / 6.0);
+}
+
+template <int ax>
+VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Index v) {
+  return fan_weight<ax>(X, f, v, v);
+}
+
+/// w[v] = fan_weight of every vertex, row by row: row r is the fan of vertex
+/// row_vertex[r] (null: r). Rows stored by valence within each cell (the Deformer's
+/// weight order) run loops of the same length one after the other.
+template <int ax>
+void fan_weights(const double* X, const PaddedFans& f, const std::int32_t* row_vertex, double* w, int threads) {
+  parallel_range(f.size(), threads, [&](Index b, Index e) {
+    if (row_vertex)
+      for (Index r = b; r < e; ++r) w[row_vertex[r]] = fan_weight<ax>(X, f, row_vertex[r], r);
+    else
+      for (Index r = b; r < e; ++r) w[r] = fan_weight<ax>(X, f, r, r);
+  });
 }
 
 /// Calls f(std::integral_constant<int, axis>{}): the axis as a compile-time
@@ -234,15 +253,31 @@ inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding
 /// not twice, in loops of fixed length): the same coefficients, volume and weights
 /// up to rounding (the terms are added in fan order). The frame's coefficient pass
 /// on closed meshes.
+///
+/// Two passes: every vertex's weight (fan_weights, in the rows' order), then the
+/// scatter and the volume in processing order. The results do not depend on the
+/// rows' order. Row by row the weight loop reads the fans in order; through the
+/// scatter's processing order (where the weights used to be computed, a block at a
+/// time) it could not visit them sorted by valence.
+/// @param row_vertex  if not null, #V: fan row -> vertex (processing position)
+/// @param weights  if not null, #V: receives the w_v (else a buffer is allocated;
+///                 a frame passes one for all its steps)
 inline AxisCoefficients coefficients_fans(const BasisTables& T, const Embedding& E, const PaddedFans& fans,
                                           const double* X, int axis, const Vector3d& origin, int threads = 0,
-                                          double* weights = nullptr, const CellRuns* runs = nullptr) {
+                                          double* weights = nullptr, const CellRuns* runs = nullptr,
+                                          const std::int32_t* row_vertex = nullptr) {
   VPFFD_CHECK(fans.size() == E.size() && fans.width >= 1, "coefficients_fans: fans of ", fans.size(),
               " vertices, the embedding has ", E.size());
+  std::vector<double> own;
+  if (!weights) {
+    own.resize(fans.size());
+    weights = own.data();
+  }
+  const double* w = weights;
   return detail::with_axis(axis, [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value;
-    auto weight_of = [&](Index v) { return detail::fan_weight<ax>(X, fans, v); };
-    return detail::weighted_scatter<ax>(T, E, runs, X, origin[ax], threads, weights, weight_of);
+    detail::fan_weights<ax>(X, fans, row_vertex, weights, threads);
+    return detail::weighted_scatter<ax>(T, E, runs, X, origin[ax], threads, nullptr, [w](Index v) { return w[v]; });
   });
 }
 

@@ -27,10 +27,12 @@ struct PartCoefficients {
 /// and the pieces are summed in order: same result for any thread count.
 /// @param part_start  K + 1 offsets into the processing order
 /// @param runs  if not null, E's cell runs (as coefficients_rings)
+/// @param row_vertex  if not null, fan row -> vertex (as coefficients_fans)
 inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embedding& E, const PaddedFans& fans,
                                                 const double* X, int axis, const Vector3d& origin,
                                                 const std::vector<Index>& part_start, int threads = 0,
-                                                const CellRuns* runs = nullptr) {
+                                                const CellRuns* runs = nullptr,
+                                                const std::int32_t* row_vertex = nullptr) {
   const Index nv = E.size();
   const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
   const int K = static_cast<int>(part_start.size()) - 1;
@@ -67,8 +69,10 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
     p.acc = pieces_of[p.part] > 1 ? buf.data() + (next++) * N : out.alpha.row(p.part).data();
 
   const double o = origin[axis];
+  std::vector<double> wv(nv);  // the weights first, row by row (coefficients_fans)
   auto pass = [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value;
+    detail::fan_weights<ax>(X, fans, row_vertex, wv.data(), threads);
     const int nt = resolve_threads(threads);
     const long np = static_cast<long>(pieces.size());
 #ifdef _OPENMP
@@ -79,7 +83,7 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
       double vsum = 0;
       auto weight = [&](Index v) {
         const double* pv = X + 3 * v;
-        const double w = detail::fan_weight<ax>(X, fans, v);
+        const double w = wv[v];
         vsum += (pv[ax] - o) * w;
         return w;
       };
