@@ -118,12 +118,25 @@ TEST(Parts, EveryPartKeepsItsVolume) {
     CorrectionOptions o;
     const DeformResult r = D.deform(P, o);
     ASSERT_EQ(r.part_volumes.size(), count);
+    // The volumes before the correction come from the first coefficient pass (the
+    // vertex weights), not a face pass: the same volumes of the plain FFD to rounding.
+    CorrectionOptions plain;
+    plain.preserve_volume = false;
+    const DeformResult f = D.deform(P, plain);
+    ASSERT_EQ(f.part_volumes_before.size(), count);
     for (int k = 0; k < count; ++k) {
       // Each part's volume is its share of a face sum of ~F_k terms of size ~|V_k|:
       // the result is exact to a few hundred ulps of the volume, far below 1e-11.
       EXPECT_LE(rel(r.part_volumes[k], rest[k]), 1e-11) << k;
       EXPECT_GT(rel(r.part_volumes_before[k], rest[k]), 1e-4) << k;
+      EXPECT_LE(rel(r.part_volumes_before[k], f.part_volumes_before[k]), 1e-11) << k;
+      EXPECT_EQ(f.part_volumes[k], f.part_volumes_before[k]) << k;
     }
+    EXPECT_EQ(r.volume_before, r.part_volumes_before.sum());
+    // The volumes after it come from the last gather (that step's weights): the face
+    // pass over the corrected vertices gives them to rounding.
+    const VectorXd measured = part_volumes(r.vertices, D.part_faces(), D.part_face_start(), D.origin());
+    for (int k = 0; k < count; ++k) EXPECT_LE(rel(r.part_volumes[k], measured[k]), 1e-12) << k;
     EXPECT_LE(rel(r.volume, rest.sum()), 1e-11);
     // Per-part targets.
     CorrectionOptions t;

@@ -559,24 +559,31 @@ class Deformer {
   }
 
   /// The last gather of a frame (gather_final_kernel): moves X along `axis` by the
-  /// offset field D and returns the volume, summed per chunk in chunk order (any
-  /// thread count, same bits).
-  double gather_final(const VectorXd& D, double* X, int axis, const double* w, int threads) const {
-    const Index nv = n_vertices();
-    const int chunks = chunk_count(nv);
-    std::vector<double> part(chunks, 0.0);
-    parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
+  /// offset field D and returns each part's volume (one entry without parts), summed
+  /// over the part's pieces (its vertices cut at the fixed chunk boundaries,
+  /// detail::part_pieces) in order: the same bits for any thread count.
+  VectorXd gather_final(const VectorXd& D, double* X, int axis, const double* w, int threads) const {
+    const std::vector<detail::PartPiece> pieces = detail::part_pieces(part_start_, n_vertices());
+    std::vector<double> sums(pieces.size(), 0.0);
+    const int nt = resolve_threads(threads);
+    const long np = static_cast<long>(pieces.size());
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1 && np > 1 && n_vertices() >= kParallelMin)
+#endif
+    for (long q = 0; q < np; ++q) {
+      const Index b = pieces[q].b, e = pieces[q].e;
       detail::dispatch_order(tables_, [&](auto K) {
         constexpr int k = decltype(K)::value;
         if constexpr (k > 0)
-          part[c] = detail::gather_final_runs<k>(tables_, embedding_, runs_, D.data(), X, axis, w, origin_[axis], b, e);
+          sums[q] = detail::gather_final_runs<k>(tables_, embedding_, runs_, D.data(), X, axis, w, origin_[axis], b, e);
         else
-          part[c] = detail::gather_final_kernel<k>(tables_, embedding_, D.data(), X, axis, w, origin_[axis], b, e);
+          sums[q] = detail::gather_final_kernel<k>(tables_, embedding_, D.data(), X, axis, w, origin_[axis], b, e);
       });
-    });
-    double s = 0;
-    for (double p : part) s += p;
-    return s;
+    }
+    (void)nt;
+    VectorXd out = VectorXd::Zero(Index(part_start_.size()) - 1);
+    for (size_t q = 0; q < pieces.size(); ++q) out[pieces[q].part] += sums[q];
+    return out;
   }
 
   // The paper's matrix holds the projection form, which on an open surface
@@ -800,21 +807,27 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   lap(tm.ffd);
 
   // --- axis steps -------------------------------------------------------------
-  if (K > 1) res.part_volumes_before = part_volumes(X, Fs_, face_start_, origin_, threads);
+  if (K > 1 && !opt.preserve_volume) res.part_volumes_before = part_volumes(X, Fs_, face_start_, origin_, threads);
   if (K > 1 && opt.preserve_volume) {
     // One volume row per part in each step; the step's volume record is the whole mesh's.
+    // The first step's coefficient pass measures the parts' volumes before any
+    // correction (sum_v (x_v - o) w_v over each part's vertices): no face pass for them.
     const int naxes = static_cast<int>(opt.axes.size());
     const int k = naxes * opt.rounds;
-    res.volume_before = res.part_volumes_before.sum();
-    lap(tm.volume);
+    std::vector<double> w(n_vertices());  // each step's weights; the last step's measure the volumes
     for (int step = 0; step < k; ++step) {
       const int a = opt.axes[step % naxes];
       AxisStep info;
       info.axis = a;
+      const bool last = step == k - 1;
       const PartCoefficients co = part_coefficients_rings(tables_, embedding_, fans_, X, a, origin_, part_start_,
-                                                          threads, &runs_, weight_order_.data());
+                                                          threads, &runs_, weight_order_.data(), w.data());
       lap(tm.coefficients);
       info.volume_before = co.volume.sum();
+      if (step == 0) {
+        res.part_volumes_before = co.volume;
+        res.volume_before = info.volume_before;
+      }
       // Equal shares of what each part still misses: after the last axis every part is at its target.
       const VectorXd shares = (pl.part_targets - co.volume) / double(k - step);
       info.share = shares.sum();
@@ -826,12 +839,15 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       res.offsets.col(a) += delta;
       res.steps.push_back(info);
       lap(tm.solves);
-      gather(expand_offsets(ties_, delta), X, a, threads);
+      // The last gather measures each part's volume with that step's weights (as the
+      // one-part frame below): no face pass after the correction either.
+      if (last)
+        res.part_volumes = gather_final(expand_offsets(ties_, delta), X, a, w.data(), threads);
+      else
+        gather(expand_offsets(ties_, delta), X, a, threads);
       lap(tm.gathers);
     }
-    res.part_volumes = part_volumes(X, Fs_, face_start_, origin_, threads);
     res.volume = res.part_volumes.sum();
-    lap(tm.volume);
   } else if (!pl.correcting) {
     // Nothing moves: one volume is both the before and the after.
     if (pl.measure)
@@ -880,7 +896,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       res.steps.push_back(info);
       lap(tm.solves);
       if (last && fused) {
-        res.volume = gather_final(delta_ext, X, a, w.data(), threads);
+        res.volume = gather_final(delta_ext, X, a, w.data(), threads)[0];
       } else {
         gather(delta_ext, X, a, threads);
       }

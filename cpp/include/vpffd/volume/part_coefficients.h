@@ -21,6 +21,35 @@ struct PartCoefficients {
   VectorXd volume;    ///< K part volumes
 };
 
+namespace detail {
+
+/// A range of one part's vertices within one of the fixed chunks of a vertex pass.
+struct PartPiece {
+  int part;
+  Index b, e;
+};
+
+/// The parts [part_start[k], part_start[k+1]) cut at the boundaries of the
+/// chunk_count(nv) chunks of [0, nv), in order. With one part these are the chunks.
+inline std::vector<PartPiece> part_pieces(const std::vector<Index>& part_start, Index nv) {
+  const int K = static_cast<int>(part_start.size()) - 1;
+  const int chunks = chunk_count(nv);
+  std::vector<PartPiece> pieces;
+  for (int k = 0; k < K; ++k) {
+    Index b = part_start[k];
+    while (b < part_start[k + 1]) {
+      int c = static_cast<int>(std::min<Index>((b * chunks) / nv, chunks - 1));
+      while (nv * (c + 1) / chunks <= b) ++c;  // the chunk that holds b
+      const Index e = std::min(part_start[k + 1], nv * (c + 1) / chunks);
+      pieces.push_back({k, b, e});
+      b = e;
+    }
+  }
+  return pieces;
+}
+
+}  // namespace detail
+
 /// One pass over the vertices as coefficients_fans (closed parts, b = p_v). The
 /// work is split at part boundaries and at the usual fixed chunk boundaries; each
 /// piece scatters into its own buffer (a part in one piece into its row directly)
@@ -28,11 +57,13 @@ struct PartCoefficients {
 /// @param part_start  K + 1 offsets into the processing order
 /// @param runs  if not null, E's cell runs (as coefficients_rings)
 /// @param row_vertex  if not null, fan row -> vertex (as coefficients_fans)
+/// @param weights  if not null, #V: receives the w_v (else a buffer is allocated)
 inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embedding& E, const PaddedFans& fans,
                                                 const double* X, int axis, const Vector3d& origin,
                                                 const std::vector<Index>& part_start, int threads = 0,
                                                 const CellRuns* runs = nullptr,
-                                                const std::int32_t* row_vertex = nullptr) {
+                                                const std::int32_t* row_vertex = nullptr,
+                                                double* weights = nullptr) {
   const Index nv = E.size();
   const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
   const int K = static_cast<int>(part_start.size()) - 1;
@@ -45,19 +76,11 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
     double volume = 0;
   };
   // Pieces: each part cut at the multiples of the whole pass's chunk size.
-  const int chunks = chunk_count(nv);
   std::vector<Piece> pieces;
   std::vector<int> pieces_of(K, 0);
-  for (int k = 0; k < K; ++k) {
-    Index b = part_start[k];
-    while (b < part_start[k + 1]) {
-      int c = static_cast<int>(std::min<Index>((b * chunks) / nv, chunks - 1));
-      while (nv * (c + 1) / chunks <= b) ++c;  // the chunk that holds b
-      const Index e = std::min(part_start[k + 1], nv * (c + 1) / chunks);
-      pieces.push_back({k, b, e, nullptr});
-      ++pieces_of[k];
-      b = e;
-    }
+  for (const detail::PartPiece& p : detail::part_pieces(part_start, nv)) {
+    pieces.push_back({p.part, p.b, p.e, nullptr});
+    ++pieces_of[p.part];
   }
   PartCoefficients out;
   out.alpha = RowMatrixXd::Zero(K, N);
@@ -69,10 +92,11 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
     p.acc = pieces_of[p.part] > 1 ? buf.data() + (next++) * N : out.alpha.row(p.part).data();
 
   const double o = origin[axis];
-  std::vector<double> wv(nv);  // the weights first, row by row (coefficients_fans)
+  std::vector<double> own(weights ? 0 : nv);  // the weights first, row by row (coefficients_fans)
+  double* wv = weights ? weights : own.data();
   auto pass = [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value;
-    detail::fan_weights<ax>(X, fans, row_vertex, wv.data(), threads);
+    detail::fan_weights<ax>(X, fans, row_vertex, wv, threads);
     const int nt = resolve_threads(threads);
     const long np = static_cast<long>(pieces.size());
 #ifdef _OPENMP
