@@ -182,9 +182,10 @@ class Deformer:
         exactly as a Deformer built on that mesh would: new embedding, processing
         order and rest volume(s), so an object can travel through the lattice frame
         by frame. On the CPU it costs each vertex's cell, a counting sort by cell, the
-        embedding (straight into the sorted order), the rest volume, renumbering the
-        faces and relabelling the vertex fans in place (nothing of these two when no
-        vertex changed its cell): 2-3 plain FFD frames, 0.5-0.8 of a
+        embedding (straight into the sorted order), the rest volume and relabelling
+        the vertex fans in place (nothing of that when no vertex changed its cell; the
+        faces are renumbered only when a frame needs them, which a volume-preserving
+        frame of a closed mesh does not): 2-3 plain FFD frames, 0.5-0.8 of a
         volume-preserving one on one thread. On "vulkan"
         only the vertices go to the device, which embeds them and sorts them by
         lattice cell itself, first thing in the next frame's submission (the rest

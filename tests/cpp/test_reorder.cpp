@@ -255,6 +255,12 @@ TEST(MovingRest, FansOfMixedLengthsStayInTheirRowsThroughMoves) {
     if (step > 0) D.set_rest_vertices(X, step % 2 + 1);
     const Deformer fresh(X, m.F, L, OutsidePolicy::Error, 1);
     expect_same_deformer(D, fresh, X, P);
+    // The frames that read the renumbered faces (built on first use after a move):
+    // the paper's matrix (method csr) and the volume measured by a face pass.
+    CorrectionOptions csr;
+    csr.method = CoefficientMethod::Csr;
+    EXPECT_EQ(D.deform(P, csr).vertices, fresh.deform(P, csr).vertices) << step;
+    EXPECT_EQ(D.deform(P, csr).volume, fresh.deform(P, csr).volume) << step;
     const RowMatrixX3d Y = ffd_points(L, P, X);
     for (int a = 0; a < 3; ++a) {
       const AxisCoefficients c = D.volume_coefficients(Y, a);

@@ -114,13 +114,27 @@ class Deformer {
   const std::vector<std::int32_t>& processing_order() const { return order_; }
   /// Per-vertex basis data in processing order.
   const Embedding& processing_embedding() const { return embedding_; }
-  /// Faces in face_processing_order(), numbered by processing position.
-  const RowMatrixX3i& processing_faces() const { return Fs_; }
+  /// Faces in face_processing_order(), numbered by processing position. Built on
+  /// first use after each change of the processing order and kept: the CPU's
+  /// volume-preserving frames of a closed mesh do not need them (the weights come
+  /// from the fans), so a moving object's set_rest_vertices does not renumber them.
+  const RowMatrixX3i& processing_faces() const {
+    std::lock_guard<std::mutex> lock(faces_mutex_);
+    if (faces_stale_) {
+      Fs_.resize(F_.rows(), 3);
+      parallel_range(F_.rows(), 0, [&](Index b, Index e) {
+        for (Index f = b; f < e; ++f)
+          for (int c = 0; c < 3; ++c) Fs_(f, c) = rank_[F_(face_order_[f], c)];
+      });
+      faces_stale_ = false;
+    }
+    return Fs_;
+  }
   /// Vertex -> faces lists of processing_faces().
   /// Built on first use and kept (CPU frames use the vertex rings instead).
   const VertexFaces& processing_adjacency() const {
     std::lock_guard<std::mutex> lock(adjacency_mutex_);
-    if (!adjacency_) adjacency_ = std::make_unique<VertexFaces>(vertex_faces(Fs_, n_vertices()));
+    if (!adjacency_) adjacency_ = std::make_unique<VertexFaces>(vertex_faces(processing_faces(), n_vertices()));
     return *adjacency_;
   }
   const BasisTables& tables() const { return tables_; }
@@ -165,7 +179,11 @@ class Deformer {
   /// mesh has moved (the next move's buffers: embedding 36, cells 4).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
-    double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fs_.size() + Fp_.size()) * per_int;
+    double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fp_.size()) * per_int;
+    {
+      std::lock_guard<std::mutex> lock(faces_mutex_);
+      bytes += double(Fs_.size()) * per_int;
+    }
     bytes += double(order_.size() + rank_.size() + face_order_.size() + weight_order_.size()) * per_int;
     {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
@@ -264,7 +282,8 @@ class Deformer {
   /// is face face_processing_order()[j] (the identity without parts).
   const CsrMatrix& face_matrix(int threads = 0) const {
     std::lock_guard<std::mutex> lock(face_matrix_mutex_);
-    if (!face_matrix_) face_matrix_ = std::make_unique<CsrMatrix>(face_basis_matrix(tables_, embedding_, Fs_, threads));
+    if (!face_matrix_)
+      face_matrix_ = std::make_unique<CsrMatrix>(face_basis_matrix(tables_, embedding_, processing_faces(), threads));
     return *face_matrix_;
   }
 
@@ -374,15 +393,15 @@ class Deformer {
     }
     runs_ = cell_runs(embedding_, threads);
     // The faces keep the mesh's order (each part's together, set in the constructor),
-    // renumbered by processing position. Sorting them by their lowest vertex's position
-    // made no face pass faster (measured, 1 thread, a face pass over cell-sorted
-    // vertices: 163k-vertex icosphere 1.35 ms sorted against 1.25 unsorted, dragon
-    // 3.76 against 3.95), and a fixed order needs no re-sort when the rest mesh moves.
-    Fs_.resize(F_.rows(), 3);
-    parallel_range(F_.rows(), threads, [&](Index b, Index e) {
-      for (Index f = b; f < e; ++f)
-        for (int c = 0; c < 3; ++c) Fs_(f, c) = rank[F_(face_order_[f], c)];
-    });
+    // renumbered by processing position when first needed (processing_faces). Sorting
+    // them by their lowest vertex's position made no face pass faster (measured, 1
+    // thread, a face pass over cell-sorted vertices: 163k-vertex icosphere 1.35 ms
+    // sorted against 1.25 unsorted, dragon 3.76 against 3.95), and a fixed order needs
+    // no re-sort when the rest mesh moves.
+    {
+      std::lock_guard<std::mutex> lock(faces_mutex_);
+      faces_stale_ = true;
+    }
     // A closed mesh's weights come from the fans (half the reads); an open one's
     // cone weights need the pairs (VertexFans' separators add zero only with b = p_v).
     // Both are built once, in the mesh's own numbering (from F_ in its face order, so
@@ -598,7 +617,7 @@ class Deformer {
   AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads,
                                 double* weights = nullptr) const {
     if (!is_closed()) check_method(method);
-    if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, Fs_, axis, origin_, threads);
+    if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, processing_faces(), axis, origin_, threads);
     if (is_closed())
       return coefficients_fans(tables_, embedding_, fans_, X, axis, origin_, threads, weights, &runs_,
                                weight_order_.data());
@@ -628,7 +647,9 @@ class Deformer {
   Embedding spare_embedding_;        ///< set_rest_vertices' buffers for the next embedding
   std::vector<std::int32_t> spare_cells_;  ///< and for the vertices' cells
   CellRuns runs_;                    ///< embedding_'s cell runs
-  RowMatrixX3i Fs_;                  ///< faces with processing-order indices
+  mutable RowMatrixX3i Fs_;          ///< faces with processing-order indices (processing_faces)
+  mutable bool faces_stale_ = true;  ///< Fs_ is of an older processing order
+  mutable std::mutex faces_mutex_;
   RowMatrixX3i Fp_;                  ///< with parts: F_'s rows in face_order_ (the rest part volumes)
   EdgeReport edges_;
   mutable std::mutex adjacency_mutex_;
@@ -807,7 +828,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   lap(tm.ffd);
 
   // --- axis steps -------------------------------------------------------------
-  if (K > 1 && !opt.preserve_volume) res.part_volumes_before = part_volumes(X, Fs_, face_start_, origin_, threads);
+  if (K > 1 && !opt.preserve_volume) res.part_volumes_before = part_volumes(X, processing_faces(), face_start_, origin_, threads);
   if (K > 1 && opt.preserve_volume) {
     // One volume row per part in each step; the step's volume record is the whole mesh's.
     // The first step's coefficient pass measures the parts' volumes before any
@@ -852,17 +873,17 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     // Nothing moves: one volume is both the before and the after.
     if (pl.measure)
       res.volume_before = res.volume =
-          direct ? signed_volume(res.vertices, F_, origin_, threads) : signed_volume(X, Fs_, origin_, threads);
+          direct ? signed_volume(res.vertices, F_, origin_, threads) : signed_volume(X, processing_faces(), origin_, threads);
     lap(tm.volume);
   } else if (!opt.preserve_volume) {
     // Constraints alone: the host steps, then each axis's total offsets at once.
-    if (pl.measure) res.volume_before = signed_volume(X, Fs_, origin_, threads);
+    if (pl.measure) res.volume_before = signed_volume(X, processing_faces(), origin_, threads);
     lap(tm.volume);
     constraint_steps(pl, P, opt, res);
     lap(tm.solves);
     for (int a : opt.axes) gather(expand_offsets(ties_, res.offsets.col(a)), X, a, threads);
     lap(tm.gathers);
-    if (pl.measure) res.volume = signed_volume(X, Fs_, origin_, threads);
+    if (pl.measure) res.volume = signed_volume(X, processing_faces(), origin_, threads);
     lap(tm.volume);
   } else {
     const int naxes = static_cast<int>(opt.axes.size());
@@ -902,12 +923,12 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       }
       lap(tm.gathers);
     }
-    if (!fused) res.volume = signed_volume(X, Fs_, origin_, threads);
+    if (!fused) res.volume = signed_volume(X, processing_faces(), origin_, threads);
     lap(tm.volume);
   }
   if (has_parts_) {
     if (K > 1) {
-      if (res.part_volumes.size() == 0) res.part_volumes = part_volumes(X, Fs_, face_start_, origin_, threads);
+      if (res.part_volumes.size() == 0) res.part_volumes = part_volumes(X, processing_faces(), face_start_, origin_, threads);
     } else {
       res.part_volumes_before = VectorXd::Constant(1, res.volume_before);
       res.part_volumes = VectorXd::Constant(1, res.volume);
