@@ -65,9 +65,9 @@ inline VertexFans permute_fans(const VertexFans& f, const std::vector<std::int32
 }
 
 /// permute_fans for the padded layout, into `out` (its buffers reused when they have
-/// the size already, as a moving mesh's spare does): rows and tails relabelled (a
-/// row's padding, the vertex itself, becomes its new index, as padding it afresh
-/// would give).
+/// the size already): rows and tails relabelled (a row's padding, the vertex itself,
+/// becomes its new index, as padding it afresh would give). A Deformer's move
+/// relabels in place instead (relabel_fans): its rows keep their vertices.
 inline void permute_fans_into(const PaddedFans& f, const std::vector<std::int32_t>& from,
                               const std::vector<std::int32_t>& to, PaddedFans& out, int threads = 0) {
   out.width = f.width;

@@ -617,7 +617,8 @@ class Deformer {
   AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads,
                                 double* weights = nullptr) const {
     if (!is_closed()) check_method(method);
-    if (method == CoefficientMethod::Csr) return coefficients_csr(face_matrix(threads), X, processing_faces(), axis, origin_, threads);
+    if (method == CoefficientMethod::Csr)
+      return coefficients_csr(face_matrix(threads), X, processing_faces(), axis, origin_, threads);
     if (is_closed())
       return coefficients_fans(tables_, embedding_, fans_, X, axis, origin_, threads, weights, &runs_,
                                weight_order_.data());
@@ -639,8 +640,9 @@ class Deformer {
   /// before it for long stretches; the loop's trip count is predicted and the rows
   /// need no padding for the longer fans (padded_fans.h). Scatter, gathers and
   /// volume keep the processing order; the weights are the same numbers in any row
-  /// order, so the results do not depend on it. Dragon, 1 thread, the xyz frame's
-  /// coefficient passes 0.88x (bench/results/frame_ab_vm.md, 2026-11-25).
+  /// order, so the results do not depend on it. Dragon, xyz frame: 0.82x on a quiet
+  /// VM, but up to ~1.1x on 1 thread under memory contention, where the separate
+  /// weight pass's traffic costs (bench/results/frame_ab_vm.md, 2026-11-25).
   std::vector<std::int32_t> weight_order_;
   std::vector<std::int32_t> face_order_;  ///< face processing position -> face (fixed: set_face_order)
   Embedding embedding_;              ///< in processing order
@@ -828,7 +830,8 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   lap(tm.ffd);
 
   // --- axis steps -------------------------------------------------------------
-  if (K > 1 && !opt.preserve_volume) res.part_volumes_before = part_volumes(X, processing_faces(), face_start_, origin_, threads);
+  if (K > 1 && !opt.preserve_volume)
+    res.part_volumes_before = part_volumes(X, processing_faces(), face_start_, origin_, threads);
   if (K > 1 && opt.preserve_volume) {
     // One volume row per part in each step; the step's volume record is the whole mesh's.
     // The first step's coefficient pass measures the parts' volumes before any
@@ -873,7 +876,8 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     // Nothing moves: one volume is both the before and the after.
     if (pl.measure)
       res.volume_before = res.volume =
-          direct ? signed_volume(res.vertices, F_, origin_, threads) : signed_volume(X, processing_faces(), origin_, threads);
+          direct ? signed_volume(res.vertices, F_, origin_, threads)
+                 : signed_volume(X, processing_faces(), origin_, threads);
     lap(tm.volume);
   } else if (!opt.preserve_volume) {
     // Constraints alone: the host steps, then each axis's total offsets at once.
@@ -928,7 +932,8 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   }
   if (has_parts_) {
     if (K > 1) {
-      if (res.part_volumes.size() == 0) res.part_volumes = part_volumes(X, processing_faces(), face_start_, origin_, threads);
+      if (res.part_volumes.size() == 0)
+        res.part_volumes = part_volumes(X, processing_faces(), face_start_, origin_, threads);
     } else {
       res.part_volumes_before = VectorXd::Constant(1, res.volume_before);
       res.part_volumes = VectorXd::Constant(1, res.volume);
