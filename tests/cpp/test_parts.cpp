@@ -134,9 +134,10 @@ TEST(Parts, EveryPartKeepsItsVolume) {
     }
     EXPECT_EQ(r.volume_before, r.part_volumes_before.sum());
     // The volumes after it come from the last gather (that step's weights): the face
-    // pass over the corrected vertices gives them to rounding.
+    // pass over the corrected vertices gives them to rounding (the bound above: two
+    // sums of ~F_k terms of size ~|V_k|, a few hundred ulps apart at most).
     const VectorXd measured = part_volumes(r.vertices, D.part_faces(), D.part_face_start(), D.origin());
-    for (int k = 0; k < count; ++k) EXPECT_LE(rel(r.part_volumes[k], measured[k]), 1e-12) << k;
+    for (int k = 0; k < count; ++k) EXPECT_LE(rel(r.part_volumes[k], measured[k]), 1e-11) << k;
     EXPECT_LE(rel(r.volume, rest.sum()), 1e-11);
     // Per-part targets.
     CorrectionOptions t;

@@ -411,16 +411,14 @@ class Deformer {
     // vertices through every move: a move relabels the entries in place.
     if (!moving) {
       if (is_closed()) {
-        std::vector<std::uint8_t> valence(nv, 0);  // faces at each vertex (63 for more)
-        for (Index f = 0; f < F_.rows(); ++f)
-          for (int c = 0; c < 3; ++c) {
-            std::uint8_t& k = valence[F_(f, c)];
-            k = static_cast<std::uint8_t>(std::min(k + 1, 63));
-          }
+        const VertexRings rings = vertex_rings(F_, nv);
+        std::vector<std::uint8_t> valence(nv);  // the ring's faces (63 for more)
+        for (Index v = 0; v < nv; ++v)
+          valence[v] = static_cast<std::uint8_t>(std::min(rings.indptr[v + 1] - rings.indptr[v], 63));
         weight_order_ = order_within_runs(runs_.start, order, valence, threads);
         std::vector<std::int32_t> row_vertex(nv);
         for (Index j = 0; j < nv; ++j) row_vertex[j] = order[weight_order_[j]];
-        fans_ = pad_fans(permute_fans(vertex_fans(vertex_rings(F_, nv)), row_vertex, rank, threads), 0, threads,
+        fans_ = pad_fans(permute_fans(vertex_fans(rings), row_vertex, rank, threads), 0, threads,
                          weight_order_.data());
       } else {
         rings_ = permute_rings(vertex_rings(F_, nv), order, rank, threads);
@@ -896,16 +894,15 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     // (the volume is linear in that axis's coordinates, V = sum_v (x_v - o) w_v).
     const bool fused = opt.method == CoefficientMethod::Traversal;
     std::vector<double> w(fused ? n_vertices() : 0);
-    // A closed mesh's coefficient passes write their weights somewhere in any case
-    // (coefficients_fans): into w, one buffer for all steps.
-    const bool weights_always = fused && is_closed();
     for (int step = 0; step < k; ++step) {
       const int a = opt.axes[step % naxes];
       const bool last = step == k - 1;
       AxisStep info;
       info.axis = a;
+      // A closed mesh's passes write their weights somewhere in any case
+      // (coefficients_fans): into w, one buffer for all steps.
       const AxisCoefficients co =
-          coefficients(X, a, opt.method, threads, (last && fused) || weights_always ? w.data() : nullptr);
+          coefficients(X, a, opt.method, threads, fused && (last || is_closed()) ? w.data() : nullptr);
       lap(tm.coefficients);
       info.volume_before = co.volume;
       if (step == 0) res.volume_before = co.volume;
