@@ -17,8 +17,11 @@ code, and the Stanford dragon from ../shared/data/meshes when it is there):
     on 2 threads and on 1.
 Both processes are pinned to the same CPUs (--cpus, default the first two this
 process may use), so each side has exactly those cores; the rounds alternate
-Blender and vpffd so that a change in machine load hits both. The table shows
-medians over all rounds; the load average is printed before and after.
+Blender and vpffd so that a change in machine load hits both. The table's times are
+medians over all rounds; its ratios are the median (and range) of each round's own
+ratio, both sides of a round measured seconds apart, which is steadier than a ratio
+of medians when the machine's speed drifts. The load average is printed before and
+after.
 
 The two lattices are not the same function: Blender's B-spline lattice is uniform
 with its end points repeated, vpffd's is clamped (open-uniform), so the deformed
@@ -139,27 +142,51 @@ def bench_mesh(name, mesh, args, cpus, tmp: Path, use_blender: bool) -> dict:
             raise RuntimeError(f"{name}: Blender's modifier did not move the mesh")
         row["blender_version"] = blender.info["version"]
         row["blender_threads_in_process"] = blender.info["threads_in_process"]
+    rounds = []  # each round's samples, for the paired ratios
     try:
         for _ in range(args.rounds):
+            r = {k: [] for k in t}
             if blender:
                 b = blender.time(args.repeats)
-                t["blender_ms"] += b["modifier_ms"]
-                t["blender_base_ms"] += b["base_ms"]
-            t["ffd2_ms"] += samples_ms(lambda: d2.ffd(P), args.repeats)
-            t["vp2_ms"] += samples_ms(lambda: d2.deform(P, axes="xyz"), args.repeats)
-            t["ffd1_ms"] += samples_ms(lambda: d1.ffd(P), args.repeats)
-            t["vp1_ms"] += samples_ms(lambda: d1.deform(P, axes="xyz"), args.repeats)
+                r["blender_ms"] = b["modifier_ms"]
+                r["blender_base_ms"] = b["base_ms"]
+            r["ffd2_ms"] = samples_ms(lambda: d2.ffd(P), args.repeats)
+            r["vp2_ms"] = samples_ms(lambda: d2.deform(P, axes="xyz"), args.repeats)
+            r["ffd1_ms"] = samples_ms(lambda: d1.ffd(P), args.repeats)
+            r["vp1_ms"] = samples_ms(lambda: d1.deform(P, axes="xyz"), args.repeats)
+            rounds.append(r)
+            for k in t:
+                t[k] += r[k]
     finally:
         if blender:
             blender.close()
     for k, v in t.items():
         row[k] = float(np.median(v)) if v else None
         row[k.replace("_ms", "_samples")] = len(v)
+    for num, den in PAIRED:
+        row[f"{num}_over_{den}_rounds"] = round_ratios(rounds, num + "_ms", den + "_ms")
     return row
 
 
-def ratio(a, b):
-    return f"{a / b:.2f}" if a is not None and b else "n/a"
+# The ratios each round gives (numerator, denominator): a round's two sides run
+# seconds apart, so a change in the machine's speed between rounds (other tenants of
+# a VM) moves both; the median of these ratios is steadier than a ratio of medians.
+PAIRED = (("vp2", "blender"), ("vp1", "blender"), ("vp2", "ffd2"))
+
+
+def round_ratios(rounds, num: str, den: str) -> list:
+    """Per round, the median of `num`'s samples over the median of `den`'s; rounds
+    where either side has no samples are left out."""
+    return [float(np.median(r[num]) / np.median(r[den])) for r in rounds if r.get(num) and r.get(den)]
+
+
+def paired(row, num: str, den: str) -> str:
+    """The median of the rounds' ratios with their range, e.g. "0.74 (0.70-0.81)";
+    "n/a" without rounds."""
+    x = row.get(f"{num}_over_{den}_rounds") or []
+    if not x:
+        return "n/a"
+    return f"{np.median(x):.2f} ({min(x):.2f}-{max(x):.2f})" if len(x) > 1 else f"{x[0]:.2f}"
 
 
 def ms(x):
@@ -167,13 +194,15 @@ def ms(x):
 
 
 def format_table(rows) -> str:
+    """The results as a Markdown table: times are medians of all samples, ratios the
+    median (and range) of each round's ratio (round_ratios)."""
     lines = ["| mesh | Blender modifier (2 thr) | Blender base | vpffd FFD | vpffd VP xyz | VP / Blender | "
              "VP / own FFD | vpffd FFD 1 thr | VP xyz 1 thr | VP 1 thr / Blender 2 thr |",
              "|---|" + "---:|" * 9]
     for r in rows:
         lines.append(f"| {r['mesh']} | {ms(r['blender_ms'])} | {ms(r['blender_base_ms'])} | {ms(r['ffd2_ms'])} | "
-                     f"{ms(r['vp2_ms'])} | {ratio(r['vp2_ms'], r['blender_ms'])} | {ratio(r['vp2_ms'], r['ffd2_ms'])} | "
-                     f"{ms(r['ffd1_ms'])} | {ms(r['vp1_ms'])} | {ratio(r['vp1_ms'], r['blender_ms'])} |")
+                     f"{ms(r['vp2_ms'])} | {paired(r, 'vp2', 'blender')} | {paired(r, 'vp2', 'ffd2')} | "
+                     f"{ms(r['ffd1_ms'])} | {ms(r['vp1_ms'])} | {paired(r, 'vp1', 'blender')} |")
     return "\n".join(lines)
 
 
@@ -215,7 +244,8 @@ def main():
     version = next((r.get("blender_version") for r in rows if r.get("blender_version")), None)
     head["blender"] = version
     print(f"\nvpffd {head['vpffd']} vs Blender {version or '(not run)'} Lattice modifier; {head['lattice']}, "
-          f"{head['edit']}; medians of {args.rounds} rounds x {args.repeats} runs (ms); 2 threads unless stated")
+          f"{head['edit']}; medians of {args.rounds} rounds x {args.repeats} runs (ms); ratios: the median (range) "
+          f"of each round's ratio; 2 threads unless stated")
     print(format_table(rows))
     print(f"\nmachine: {head['cpu']}, pinned to CPUs {cpus}; load average before {head['load_before']}, "
           f"after {head['load_after']}")
@@ -228,7 +258,8 @@ def main():
     with out.with_suffix(".csv").open("w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys)
         w.writeheader()
-        w.writerows(rows)
+        w.writerows({k: " ".join(f"{x:.4f}" for x in v) if isinstance(v, list) else v for k, v in r.items()}
+                    for r in rows)
     print(f"wrote {out.with_suffix('.json')} and .csv")
 
 
