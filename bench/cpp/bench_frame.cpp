@@ -4,15 +4,21 @@
 // Vulkan backend is built and a device is found, on the GPU.
 //
 //   bench_frame [icosphere LEVEL | PLY_FILE] [REPEATS]
+//   bench_frame --frames N [icosphere LEVEL | PLY_FILE]
 //
 // Prints one line per backend: median milliseconds of the plain FFD and the xyz
 // frame, the volume error and, on Vulkan, the GPU time from timestamp queries; on the
 // CPU also the frame's passes (FFD, coefficient passes, solves, gathers, the copy to
 // the caller's order), medians of the frame's own clocks, and the cost of moving the
 // rest mesh (set_rest_vertices).
+//
+// With --frames N it times nothing: it builds the Deformer and runs N xyz frames on
+// one thread, for counts under valgrind's cachegrind (instructions, simulated cache
+// misses), which a noisy machine does not change (bench/cachegrind_frame.sh).
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -71,6 +77,12 @@ double median_ms(const std::function<void()>& f, int repeats) {
 
 int main(int argc, char** argv) {
   try {
+    int count_frames = -1;  // --frames N: run N frames untimed
+    if (argc > 2 && std::strcmp(argv[1], "--frames") == 0) {
+      count_frames = std::max(0, std::atoi(argv[2]));
+      argv += 2;
+      argc -= 2;
+    }
     std::string what = argc > 1 ? argv[1] : "icosphere";
     vpffd::TriMesh m;
     if (what == "icosphere") {
@@ -86,6 +98,19 @@ int main(int argc, char** argv) {
     const vpffd::Lattice L = vpffd::make_lattice(lo - pad, hi + pad, {10, 10, 10}, {3, 3, 3});
     const vpffd::RowMatrixX3d P =
         vpffd::twist(vpffd::scale(vpffd::rest_control_points(L), {1, 1, 0.6}, c), 0.5 * M_PI, 2, c);
+    if (count_frames >= 0) {
+      vpffd::Deformer d(m.V, m.F, L, vpffd::OutsidePolicy::Error, 1);
+      vpffd::CorrectionOptions o;
+      o.threads = 1;
+      double err = 0;
+      for (int f = 0; f < count_frames; ++f) {
+        const vpffd::DeformResult r = d.deform(P, o);
+        err = std::max(err, std::abs(r.volume - r.target_volume) / r.target_volume);
+      }
+      std::printf("mesh %s: %ld vertices; %d xyz frames on 1 thread, volume error %.1e\n", what.c_str(),
+                  long(m.V.rows()), count_frames, err);
+      return 0;
+    }
     std::printf("mesh %s: %ld vertices, %ld faces; lattice 10x10x10 cubic; median of %d\n", what.c_str(),
                 long(m.V.rows()), long(m.F.rows()), repeats);
     std::printf("%-28s %10s %12s %12s %12s\n", "backend", "FFD ms", "xyz ms", "GPU xyz ms", "volume err");
