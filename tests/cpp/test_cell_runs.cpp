@@ -345,8 +345,9 @@ TEST(VertexFans, OpenAndNonManifoldVertices) {
     EXPECT_LE(std::abs(r.volume - f.volume), 1e-13 * std::abs(r.volume));
     EXPECT_LE(std::abs(f.volume - signed_volume(X, Fs, o)), 1e-13 * std::abs(f.volume));
     // Any row width gives the same terms in the same order: rows of 1 (every fan in
-    // its tail) to 16 (every fan padded; the separators of the two-cycle vertex too).
-    for (int width : {1, 2, 4, 16}) {
+    // its tail) to 16 (every fan padded; the separators of the two-cycle vertex too);
+    // widths 4-8 take the unrolled loops (with_fan_width), the others the plain one.
+    for (int width : {1, 2, 3, 4, 5, 6, 7, 8, 9, 16}) {
       std::vector<double> ww(X.rows());
       const AxisCoefficients g = coefficients_fans(T, E, pad_fans(fs, width), X.data(), ax, o, 1, ww.data(), &runs);
       EXPECT_EQ(ww, wf) << "width " << width;
@@ -359,7 +360,7 @@ TEST(VertexFans, OpenAndNonManifoldVertices) {
     std::iota(rows.begin(), rows.end(), 0);
     std::iota(id.begin(), id.end(), 0);
     std::shuffle(rows.begin(), rows.end(), std::mt19937(ax + 1));
-    for (int width : {3, 16}) {
+    for (int width : {3, 6, 16}) {
       const PaddedFans shuffled = pad_fans(permute_fans(fs, rows, id), width, 1, rows.data());
       std::vector<double> ws(X.rows());
       const AxisCoefficients h =

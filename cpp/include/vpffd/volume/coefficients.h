@@ -82,11 +82,12 @@ inline double ring_weight(const double* X, const std::int32_t* ip, const std::in
 /// ring_weight for a closed mesh (b = p_v) from the vertex's fan (PaddedFans: its
 /// row, a loop of fixed length, then the tail of a longer fan): each neighbour's two
 /// coordinates read once, the terms in fan order. `r` is the fan's row (v where the
-/// rows are in vertex order).
-template <int ax>
+/// rows are in vertex order). W > 0: the rows' width as a compile-time constant (the
+/// row loop unrolled, the same terms in the same order); W = 0: f.width.
+template <int ax, int W = 0>
 VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Index v, Index r) {
   constexpr int a1 = (ax + 1) % 3, a2 = (ax + 2) % 3;
-  const int width = f.width;
+  const int width = W > 0 ? W : f.width;
   const std::int32_t* row = f.head.data() + r * width;
   const double b1 = X[3 * v + a1], b2 = X[3 * v + a2];
   const double* q = X + 3 * Index(row[0]);
@@ -99,7 +100,12 @@ VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Inde
     u1 = t1;
     u2 = t2;
   };
-  for (int k = 1; k < width; ++k) term(row[k]);
+  if constexpr (W > 0) {
+#pragma GCC unroll 16
+    for (int k = 1; k < W; ++k) term(row[k]);
+  } else {
+    for (int k = 1; k < width; ++k) term(row[k]);
+  }
   for (std::int32_t p = f.tail_ptr[r]; p < f.tail_ptr[r + 1]; ++p) term(f.tail[p]);
   return w * (1.0 / 6.0);
 }
@@ -109,16 +115,33 @@ VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Inde
   return fan_weight<ax>(X, f, v, v);
 }
 
+/// Calls f(std::integral_constant<int, W>{}) with W = width for the common row widths
+/// (padded_fan_width: 5-8 on scanned and subdivided meshes), else W = 0.
+template <class F>
+decltype(auto) with_fan_width(int width, F&& f) {
+  switch (width) {
+    case 4: return f(std::integral_constant<int, 4>{});
+    case 5: return f(std::integral_constant<int, 5>{});
+    case 6: return f(std::integral_constant<int, 6>{});
+    case 7: return f(std::integral_constant<int, 7>{});
+    case 8: return f(std::integral_constant<int, 8>{});
+    default: return f(std::integral_constant<int, 0>{});
+  }
+}
+
 /// w[v] = fan_weight of every vertex, row by row: row r is the fan of vertex
 /// row_vertex[r] (null: r). Rows stored by valence within each cell (the Deformer's
 /// weight order) run loops of the same length one after the other.
 template <int ax>
 void fan_weights(const double* X, const PaddedFans& f, const std::int32_t* row_vertex, double* w, int threads) {
-  parallel_range(f.size(), threads, [&](Index b, Index e) {
-    if (row_vertex)
-      for (Index r = b; r < e; ++r) w[row_vertex[r]] = fan_weight<ax>(X, f, row_vertex[r], r);
-    else
-      for (Index r = b; r < e; ++r) w[r] = fan_weight<ax>(X, f, r, r);
+  with_fan_width(f.width, [&](auto width_c) {
+    constexpr int W = decltype(width_c)::value;
+    parallel_range(f.size(), threads, [&](Index b, Index e) {
+      if (row_vertex)
+        for (Index r = b; r < e; ++r) w[row_vertex[r]] = fan_weight<ax, W>(X, f, row_vertex[r], r);
+      else
+        for (Index r = b; r < e; ++r) w[r] = fan_weight<ax, W>(X, f, r, r);
+    });
   });
 }
 
