@@ -6,14 +6,22 @@
 # a miss that the hardware prefetcher hides costs little, and the branch model is
 # simpler than a CPU's.
 #
-#   bench/cachegrind_frame.sh BENCH_FRAME_BINARY [icosphere LEVEL | PLY_FILE]
+#   bench/cachegrind_frame.sh [--moves] BENCH_FRAME_BINARY [icosphere LEVEL | PLY_FILE]
 #
 # Runs the binary with --frames 1 and --frames 4 (the two at once) and prints the
-# difference / 3: the Deformer's construction cancels. The last-level cache is
+# difference / 3: the Deformer's construction cancels. With --moves: per move of the
+# rest mesh (set_rest_vertices) instead of per frame. The last-level cache is
 # simulated at LL_BYTES (default 4 MiB, a core's share of a typical L3), so that the
 # dragon's data (~100 MB) does not fit in it. About 5 minutes for the dragon.
 set -euo pipefail
-bin=${1:?usage: cachegrind_frame.sh BENCH_FRAME_BINARY [icosphere LEVEL | PLY_FILE]}
+mode=--frames
+what="xyz frame"
+if [[ ${1:-} == --moves ]]; then
+  mode=--moves
+  what="move of the rest mesh"
+  shift
+fi
+bin=${1:?usage: cachegrind_frame.sh [--moves] BENCH_FRAME_BINARY [icosphere LEVEL | PLY_FILE]}
 shift
 command -v valgrind >/dev/null || { echo "cachegrind_frame.sh: needs valgrind (apt-get install valgrind)" >&2; exit 1; }
 tmp=$(mktemp -d)
@@ -21,11 +29,11 @@ trap 'rm -rf "$tmp"' EXIT
 for n in 1 4; do
   OMP_NUM_THREADS=1 valgrind --tool=cachegrind --cache-sim=yes --branch-sim=yes \
     --LL="${LL_BYTES:-4194304}",16,64 --cachegrind-out-file="$tmp/out.$n" \
-    "$bin" --frames "$n" "$@" >"$tmp/stdout.$n" 2>"$tmp/log.$n" &
+    "$bin" "$mode" "$n" "$@" >"$tmp/stdout.$n" 2>"$tmp/log.$n" &
 done
 wait
 cat "$tmp/stdout.4"
-python3 - "$tmp" <<'PY'
+python3 - "$tmp" "$what" <<'PY'
 import re, sys
 def counts(path):
     text = open(path).read()
@@ -33,5 +41,5 @@ def counts(path):
     return {"instructions": get(r"I\s+refs"), "D1 misses": get(r"D1\s+misses"),
             "LL misses": get(r"LL misses"), "mispredicts": get(r"Mispredicts")}
 a, b = counts(f"{sys.argv[1]}/log.1"), counts(f"{sys.argv[1]}/log.4")
-print("per xyz frame (1 thread): " + ", ".join(f"{k} {(b[k] - a[k]) / 3 / 1e6:.2f} M" for k in a))
+print(f"per {sys.argv[2]} (1 thread): " + ", ".join(f"{k} {(b[k] - a[k]) / 3 / 1e6:.2f} M" for k in a))
 PY

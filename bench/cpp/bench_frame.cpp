@@ -5,6 +5,7 @@
 //
 //   bench_frame [icosphere LEVEL | PLY_FILE] [REPEATS]
 //   bench_frame --frames N [icosphere LEVEL | PLY_FILE]
+//   bench_frame --moves N [icosphere LEVEL | PLY_FILE]
 //
 // Prints one line per backend: median milliseconds of the plain FFD and the xyz
 // frame, the volume error and, on Vulkan, the GPU time from timestamp queries; on the
@@ -14,7 +15,8 @@
 //
 // With --frames N it times nothing: it builds the Deformer and runs N xyz frames on
 // one thread, for counts under valgrind's cachegrind (instructions, simulated cache
-// misses), which a noisy machine does not change (bench/cachegrind_frame.sh).
+// misses), which a noisy machine does not change (bench/cachegrind_frame.sh); with
+// --moves N, N moves of the rest mesh instead (as the timed move below).
 
 #include <algorithm>
 #include <chrono>
@@ -73,12 +75,23 @@ double median_ms(const std::function<void()>& f, int repeats) {
   return t[t.size() / 2];
 }
 
+/// V moved by s of the mesh's size along x and s / 2 along y.
+vpffd::RowMatrixX3d moved(const vpffd::RowMatrixX3d& V, const vpffd::Vector3d& lo, const vpffd::Vector3d& hi,
+                          double s) {
+  vpffd::RowMatrixX3d X = V;
+  X.col(0).array() += s * (hi[0] - lo[0]);
+  X.col(1).array() += 0.5 * s * (hi[1] - lo[1]);
+  return X;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   try {
-    int count_frames = -1;  // --frames N: run N frames untimed
-    if (argc > 2 && std::strcmp(argv[1], "--frames") == 0) {
+    int count_frames = -1;  // --frames N / --moves N: run N frames or moves untimed
+    bool count_moves = false;
+    if (argc > 2 && (std::strcmp(argv[1], "--frames") == 0 || std::strcmp(argv[1], "--moves") == 0)) {
+      count_moves = std::strcmp(argv[1], "--moves") == 0;
       count_frames = std::max(0, std::atoi(argv[2]));
       argv += 2;
       argc -= 2;
@@ -98,6 +111,14 @@ int main(int argc, char** argv) {
     const vpffd::Lattice L = vpffd::make_lattice(lo - pad, hi + pad, {10, 10, 10}, {3, 3, 3});
     const vpffd::RowMatrixX3d P =
         vpffd::twist(vpffd::scale(vpffd::rest_control_points(L), {1, 1, 0.6}, c), 0.5 * M_PI, 2, c);
+    if (count_frames >= 0 && count_moves) {
+      vpffd::Deformer d(m.V, m.F, L, vpffd::OutsidePolicy::Error, 1);
+      const vpffd::RowMatrixX3d X[2] = {moved(m.V, lo, hi, 0.01), moved(m.V, lo, hi, -0.01)};
+      for (int k = 0; k < count_frames; ++k) d.set_rest_vertices(X[k % 2], 1);
+      std::printf("mesh %s: %ld vertices; %d moves of the rest mesh on 1 thread\n", what.c_str(), long(m.V.rows()),
+                  count_frames);
+      return 0;
+    }
     if (count_frames >= 0) {
       vpffd::Deformer d(m.V, m.F, L, vpffd::OutsidePolicy::Error, 1);
       vpffd::CorrectionOptions o;
@@ -143,12 +164,7 @@ int main(int argc, char** argv) {
       // lattice's padding), so that vertices change cell every call and the processing
       // order, faces and fans are carried over to a new order each time.
       vpffd::Deformer dm(m.V, m.F, L, vpffd::OutsidePolicy::Error, threads);
-      vpffd::RowMatrixX3d X[2] = {m.V, m.V};
-      for (int k = 0; k < 2; ++k) {
-        const double s = k == 0 ? 0.01 : -0.01;
-        X[k].col(0).array() += s * (hi[0] - lo[0]);
-        X[k].col(1).array() += 0.5 * s * (hi[1] - lo[1]);
-      }
+      const vpffd::RowMatrixX3d X[2] = {moved(m.V, lo, hi, 0.01), moved(m.V, lo, hi, -0.01)};
       int step = 0;
       const double t_move = median_ms([&] { dm.set_rest_vertices(X[step++ % 2], threads); }, repeats);
       std::printf("  move rest mesh ms: %.3f (set_rest_vertices, the cell order changing every call)\n", t_move);
