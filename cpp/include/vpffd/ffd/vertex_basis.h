@@ -8,6 +8,7 @@
 
 #include <type_traits>
 
+#include "vpffd/core/dispatch.h"
 #include "vpffd/lattice/embed.h"
 
 namespace vpffd::detail {
@@ -42,17 +43,7 @@ VPFFD_ALWAYS_INLINE Index point_basis(const BasisTables& T, const Embedding& E, 
 template <class F>
 decltype(auto) dispatch_order(const BasisTables& T, F&& f) {
   const int K = T.order[0];
-  if (T.order[1] == K && T.order[2] == K) {
-    switch (K) {
-      case 2: return f(std::integral_constant<int, 2>{});
-      case 3: return f(std::integral_constant<int, 3>{});
-      case 4: return f(std::integral_constant<int, 4>{});
-      case 5: return f(std::integral_constant<int, 5>{});
-      case 6: return f(std::integral_constant<int, 6>{});
-      default: break;
-    }
-  }
-  return f(std::integral_constant<int, 0>{});
+  return with_constant<2, 6>(T.order[1] == K && T.order[2] == K ? K : 0, std::forward<F>(f));
 }
 
 }  // namespace vpffd::detail

@@ -9,6 +9,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "vpffd/core/dispatch.h"
 #include "vpffd/core/parallel.h"
 #include "vpffd/ffd/cell_runs.h"
 #include "vpffd/ffd/kernels.h"
@@ -119,14 +120,7 @@ VPFFD_ALWAYS_INLINE double fan_weight(const double* X, const PaddedFans& f, Inde
 /// (padded_fan_width: 5-8 on scanned and subdivided meshes), else W = 0.
 template <class F>
 decltype(auto) with_fan_width(int width, F&& f) {
-  switch (width) {
-    case 4: return f(std::integral_constant<int, 4>{});
-    case 5: return f(std::integral_constant<int, 5>{});
-    case 6: return f(std::integral_constant<int, 6>{});
-    case 7: return f(std::integral_constant<int, 7>{});
-    case 8: return f(std::integral_constant<int, 8>{});
-    default: return f(std::integral_constant<int, 0>{});
-  }
+  return with_constant<4, 8>(width, std::forward<F>(f));
 }
 
 /// w[v] = fan_weight of every vertex, row by row: row r is the fan of vertex
