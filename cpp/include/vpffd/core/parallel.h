@@ -60,6 +60,19 @@ void parallel_range(Index n, int threads, F&& f) {
 #endif
 }
 
+/// Calls f(i) for each of `count` items, in parallel (each item on one thread,
+/// dynamically scheduled: items of uneven size) when `work`, the items' total size
+/// (e.g. their vertices), is at least kParallelMin. Items write results of their own,
+/// combined by the caller in item order: the same bits for any thread count.
+template <class F>
+void parallel_items(Index count, Index work, int threads, F&& f) {
+  threads = resolve_threads(threads);
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic) num_threads(threads) if (threads > 1 && count > 1 && work >= kParallelMin)
+#endif
+  for (Index i = 0; i < count; ++i) f(i);
+}
+
 /// Number of chunks for a reduction over n items: fixed by n alone (not by the
 /// thread count), so results are reproducible across thread counts.
 inline int chunk_count(Index n, Index min_chunk = 8192, int max_chunks = 64) {

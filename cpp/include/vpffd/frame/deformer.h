@@ -582,12 +582,7 @@ class Deformer {
   VectorXd gather_final(const VectorXd& D, double* X, int axis, const double* w, int threads) const {
     const std::vector<detail::PartPiece> pieces = detail::part_pieces(part_start_, n_vertices());
     std::vector<double> sums(pieces.size(), 0.0);
-    const int nt = resolve_threads(threads);
-    const long np = static_cast<long>(pieces.size());
-#ifdef _OPENMP
-#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1 && np > 1 && n_vertices() >= kParallelMin)
-#endif
-    for (long q = 0; q < np; ++q) {
+    parallel_items(Index(pieces.size()), n_vertices(), threads, [&](Index q) {
       const Index b = pieces[q].b, e = pieces[q].e;
       detail::dispatch_order(tables_, [&](auto K) {
         constexpr int k = decltype(K)::value;
@@ -596,8 +591,7 @@ class Deformer {
         else
           sums[q] = detail::gather_final_kernel<k>(tables_, embedding_, D.data(), X, axis, w, origin_[axis], b, e);
       });
-    }
-    (void)nt;
+    });
     VectorXd out = VectorXd::Zero(Index(part_start_.size()) - 1);
     for (size_t q = 0; q < pieces.size(); ++q) out[pieces[q].part] += sums[q];
     return out;

@@ -97,12 +97,7 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
   auto pass = [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value;
     detail::fan_weights<ax>(X, fans, row_vertex, wv, threads);
-    const int nt = resolve_threads(threads);
-    const long np = static_cast<long>(pieces.size());
-#ifdef _OPENMP
-#pragma omp parallel for schedule(dynamic) num_threads(nt) if (nt > 1 && np > 1 && nv >= kParallelMin)
-#endif
-    for (long q = 0; q < np; ++q) {
+    parallel_items(Index(pieces.size()), nv, threads, [&](Index q) {
       Piece& piece = pieces[q];
       double vsum = 0;
       auto weight = [&](Index v) {
@@ -113,12 +108,9 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
       };
       detail::scatter(T, E, runs, weight, piece.acc, piece.b, piece.e);
       piece.volume = vsum;
-    }
-    (void)nt;
+    });
   };
-  if (axis == 0) pass(std::integral_constant<int, 0>{});
-  else if (axis == 1) pass(std::integral_constant<int, 1>{});
-  else pass(std::integral_constant<int, 2>{});
+  detail::with_axis(axis, pass);
 
   out.volume = VectorXd::Zero(K);
   for (const Piece& p : pieces) {
