@@ -130,6 +130,10 @@ class Deformer:
             self.mesh.vertices, self.mesh.faces, lattice._spec, outside, self._threads, labels)
         self._last_frame = None  # Vulkan: (control points, options) of the last frame kept (see on_fold)
         self._auto_weight_rest = None  # local_weights: the rest mesh's cone volumes, for weights="auto"
+        # The core's options of frames without per-frame arrays, by their scalar settings:
+        # building one from keywords costs about as much as the FFD of 500 vertices, and an
+        # animation asks for the same few every frame. The core only reads them.
+        self._plain_options = {}
         if labels is not None:
             _check_memory(lattice.n_control_points, f"Deformer with {self._core.n_parts} parts",
                           _FRAME_BYTES_PER_CONTROL_POINT + _FRAME_BYTES_PER_CONTROL_POINT_AND_PART * self._core.n_parts,
@@ -390,11 +394,8 @@ class Deformer:
         if allow_open and preserve_volume and not self._core.is_closed:
             warnings.warn("deform: the mesh is not closed; the volume kept is that of the cone from the lattice "
                           "centre, which depends on where that centre is", stacklevel=2)
-        # The one place a frame's options are named; every backend takes the same object.
-        opts = _core.CorrectionOptions(preserve_volume=bool(preserve_volume), axes=axes, weights=w, fixed=fx,
-                                       constraints=cons, target_volume=tv, part_targets=part_targets,
-                                       method=method, threads=self._threads, allow_open=bool(allow_open),
-                                       rounds=int(rounds))
+        opts = self._frame_options(bool(preserve_volume), axes, w, fx, cons, tv, part_targets, method,
+                                   bool(allow_open), int(rounds))
         if self._vk is not None:
             r = self._vk.deform(P, opts, normals=bool(normals))
         else:
@@ -416,6 +417,22 @@ class Deformer:
             backend=self.backend, method="traversal" if self._vk is not None else method, folds=folds,
             faces=self.mesh.faces, normals=self._frame_normals(r, normals), part_volumes=r.get("part_volumes"),
             part_volumes_before=r.get("part_volumes_before"), part_target_volumes=r.get("part_targets"))
+
+    def _frame_options(self, preserve_volume, axes, w, fx, cons, tv, part_targets, method, allow_open, rounds):
+        """The one place a frame's options are named; every backend takes the same object.
+        Frames without weights, fixed points, constraints or targets share one per setting."""
+        key = None
+        if w is None and fx is None and not cons and tv is None and part_targets is None:
+            key = (preserve_volume, axes, method, allow_open, rounds)
+            opts = self._plain_options.get(key)
+            if opts is not None:
+                return opts
+        opts = _core.CorrectionOptions(preserve_volume=preserve_volume, axes=axes, weights=w, fixed=fx,
+                                       constraints=cons, target_volume=tv, part_targets=part_targets,
+                                       method=method, threads=self._threads, allow_open=allow_open, rounds=rounds)
+        if key is not None and len(self._plain_options) < 64:
+            self._plain_options[key] = opts
+        return opts
 
     def _frame_normals(self, r, wanted):
         """The frame's normals: the device's, or on the CPU deformed_normals of its control points."""

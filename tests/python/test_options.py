@@ -50,3 +50,23 @@ def test_binding_deform_equals_the_public_one(sphere, lat):
                       _core.CorrectionOptions(axes="xy", rounds=2, target_volume=1.1 * d.rest_volume, threads=1))
     np.testing.assert_array_equal(public.vertices, raw["vertices"])
     assert [s["axis"] for s in raw["steps"]] == ["x", "y", "x", "y"]
+
+
+def test_frames_in_turn_each_get_their_own_options(sphere, lat):
+    """Frames without per-frame arrays share options per setting (Deformer._frame_options):
+    each setting, asked in any order, runs as in a Deformer that never saw another."""
+    P = vpffd.edits.twist(lat.control_points, 60)
+    settings = [dict(), dict(axes="xy"), dict(preserve_volume=False), dict(rounds=2), dict(method="csr"),
+                dict(axes="z", rounds=3), dict(target_volume=0.9), dict(axes="xy")]
+    d = vpffd.Deformer(sphere, lat, backend="serial")
+    for kw in settings * 2:
+        fresh = vpffd.Deformer(sphere, lat, backend="serial").deform(P, **kw)
+        r = d.deform(P, **kw)
+        np.testing.assert_array_equal(r.vertices, fresh.vertices)
+        assert [s["axis"] for s in r.steps] == [s["axis"] for s in fresh.steps]
+        assert r.volume == fresh.volume and r.method == fresh.method
+    assert len(d._plain_options) == 6  # target_volume frames are built each time
+    with pytest.raises(vpffd.InvalidInputError, match="axes"):
+        d.deform(P, axes="xq")
+    with pytest.raises(vpffd.InvalidInputError, match="axes"):
+        d.deform(P, axes="xq")  # refused again: nothing kept of a refused setting
