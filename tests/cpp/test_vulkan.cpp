@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <cmath>
 #include <memory>
 #include <thread>
@@ -457,14 +459,35 @@ TEST_P(VulkanP, MovedRestBadInput) {
   EXPECT_EQ(gpu_msg, cpu_msg);
   EXPECT_NE(gpu_msg.find(std::to_string(n_out) + " vertices lie outside"), std::string::npos) << gpu_msg;
   EXPECT_NE(gpu_msg.find("the first is vertex " + std::to_string(first) + " at"), std::string::npos) << gpu_msg;
-  RowMatrixX3d nan = s.V;
-  nan(7, 1) = std::nan("");
-  EXPECT_THROW(gpu.set_rest_vertices(nan), InvalidInputError);
+  // Non-finite coordinates, in the staging loop's blocks of four vertices and in the
+  // last vertex (past the last block: the vertex count is not a multiple of four here).
+  const Index last = s.V.rows() - 1;
+  ASSERT_NE(s.V.rows() % 4, 0);
+  for (const Index v : {Index(7), last})
+    for (const double bad : {std::nan(""), std::numeric_limits<double>::infinity(),
+                             -std::numeric_limits<double>::infinity()}) {
+      RowMatrixX3d Y = s.V;
+      Y(v, v == last ? 2 : 1) = bad;
+      EXPECT_THROW(gpu.set_rest_vertices(Y), InvalidInputError) << v << " " << bad;
+    }
   EXPECT_THROW(gpu.set_rest_vertices(s.V.topRows(s.V.rows() - 1)), InvalidInputError);
   // Unchanged after the refusals.
   EXPECT_EQ((gpu.rest_vertices() - s.V).cwiseAbs().maxCoeff(), 0.0);
   const DeformResult again = gpu.deform(P, {});
   EXPECT_EQ((again.vertices - before.vertices).cwiseAbs().maxCoeff(), 0.0);
+  // Positions given as three columns of a wider array (a strided view, staged row by
+  // row): the same move as from a copy.
+  RowMatrixX3d Z = s.V * 0.9;
+  Z.col(1).array() += 0.05;
+  RowMatrixXd wide = RowMatrixXd::Zero(Z.rows(), 5);
+  wide.middleCols(1, 3) = Z;
+  CorrectionOptions plain;
+  plain.preserve_volume = false;
+  gpu.set_rest_vertices(wide.middleCols(1, 3));
+  const DeformResult viewed = gpu.deform(P, plain);
+  gpu.set_rest_vertices(Z);
+  EXPECT_EQ((gpu.deform(P, plain).vertices - viewed.vertices).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((gpu.rest_vertices() - Z).cwiseAbs().maxCoeff(), 0.0);
 }
 
 // A volume correction found impossible on the device, after the frame ran, must not

@@ -162,7 +162,7 @@ struct VulkanDeformer::Impl {
     bConsI = VPFFD_B_CONS_I, bStats = VPFFD_B_STATS, bRed = VPFFD_B_RED, bConsD = VPFFD_B_CONS_D,
     bWork = VPFFD_B_WORK, bNrm0 = VPFFD_B_NRM0, bNrm = VPFFD_B_NRM, bNrmTab = VPFFD_B_NRM_TAB,
     bSort = VPFFD_B_SORT, bTies = VPFFD_B_TIES, bSeam = VPFFD_B_SEAM, bParts = VPFFD_B_PARTS,
-    kNumBuf = VPFFD_B_COUNT
+    bSlotVertex = VPFFD_B_SLOT_VERTEX, kNumBuf = VPFFD_B_COUNT
   };
   static_assert(kNumBuf == int(kBindings), "one binding per device buffer");
   Buffer buf[kNumBuf];

@@ -175,6 +175,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   mk(bTileVol, 8 * n_tiles, "tile volumes");
   mk(bScan, 4 * scan_size, "cell sort counts");
   mk(bRest, 8 * (3 * nv + em.size()), "rest positions");
+  mk(bSlotVertex, 4 * size_t(nv), "slot vertices");
   mk(bSort, 4 * (4 * nv + 2 * n_keys), "cell sort");
   up_rest = B(*dev, 24 * nv, B::Upload, "rest positions (upload)");
   mk(bAlpha, 8 * size_t(K) * N, "coefficients");
@@ -247,6 +248,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   put(bNrmTab, nrm_tab_dev.data(), 8 * nrm_tab_dev.size());
   put(bTies, tie_map.data(), 4 * tie_map.size());
   put(bParts, part_map.data(), 4 * part_map.size());
+  put(bSlotVertex, order.data(), 4 * size_t(nv));
   // The table goes behind the rest positions (their place is filled per move).
   staging.emplace_back(*dev, 8 * em_dev.size(), B::Upload, "staging");
   std::memcpy(staging.back().mapped(), em_dev.data(), 8 * em_dev.size());

@@ -75,8 +75,10 @@ layout(std430, set = 0, binding = VPFFD_B_TILE_VOL) buffer BufTileVol { real til
 // The device embedding (embed.comp, radix.comp, tiles.comp): the digit counts of the
 // cell sort, then per cell (= its first control point index) its first tile, N + 1 entries.
 layout(std430, set = 0, binding = VPFFD_B_SCAN) buffer BufScan { uint scan_buf[]; };
-// Rest positions (3V, device units) and the embedding table (EM_*).
+// Rest positions (3V, device units, in the caller's vertex order: slot v's is at
+// 3 slot_vertex[v]) and the embedding table (EM_*).
 layout(std430, set = 0, binding = VPFFD_B_REST) readonly buffer BufRest { real rest[]; };
+layout(std430, set = 0, binding = VPFFD_B_SLOT_VERTEX) readonly buffer BufSlotVertex { int slot_vertex[]; };
 // Two arrays of (cell, slot) pairs, 2V ints each (the sorted one is the first), then
 // per cell the range [start, end) of its vertices in the sorted array (2N ints).
 layout(std430, set = 0, binding = VPFFD_B_SORT) buffer BufSort { int sorted[]; };

@@ -80,8 +80,9 @@ void main() {
   const bool clamp_u = (pc.flags & EM_CLAMP) != 0;
   for (uint v = gl_GlobalInvocationID.x; v < uint(NVERT); v += stride) {
     real y[3];
+    const int p = 3 * slot_vertex[v];
     for (int a = 0; a < 3; ++a) {
-      y[a] = rest[3 * v + a];
+      y[a] = rest[p + a];
       X[3 * v + a] = r_to_float(y[a]);
     }
     if (SEAMS != 0) {

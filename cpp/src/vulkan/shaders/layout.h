@@ -19,7 +19,8 @@
 #define VPFFD_B_PARTIAL 9     // real, NTILE x KKK: tile partials of the coefficients
 #define VPFFD_B_TILE_VOL 10   // real, NTILE
 #define VPFFD_B_SCAN 11       // uint: radix-sort digit counts, then per cell its first tile (N + 1)
-#define VPFFD_B_REST 12       // real: 3V rest positions (scale units, from the origin), then the embedding table
+#define VPFFD_B_REST 12       // real: 3V rest positions (the caller's vertex order; scale units, from the origin),
+                             // then the embedding table
 #define VPFFD_B_ALPHA 13      // real, N: coefficients
 #define VPFFD_B_INV_W 14      // real, N: inverse weights, 0 = fixed
 #define VPFFD_B_DELTA 15      // real, 4N: three accumulated axes, this step's
@@ -36,7 +37,8 @@
 #define VPFFD_B_TIES 26       // int: periodic tie map (common.glsl TIE_*)
 #define VPFFD_B_SEAM 27       // vec4 per vertex slot: shift seam translation, twist seam mirror flag
 #define VPFFD_B_PARTS 28      // int, with parts: each part's faces [PT_FACE_START + k, + k + 1), each slot's part
-#define VPFFD_B_COUNT 29
+#define VPFFD_B_SLOT_VERTEX 29  // int, V: the caller's vertex of each slot (where its rest position is in rest[])
+#define VPFFD_B_COUNT 30
 
 // Workgroup sizes.
 #define VPFFD_TILE 64         // vertices per tile = coef.comp's workgroup size

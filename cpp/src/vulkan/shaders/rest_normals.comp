@@ -23,7 +23,8 @@ void main() {
     real n[3] = real[3](r_zero(), r_zero(), r_zero());
     for (int k = adj_ptr[v]; k < adj_ptr[v + 1]; ++k) {
       const int f = adj_face[k];
-      const int p0 = F[3 * f], p1 = F[3 * f + 1], p2 = F[3 * f + 2];
+      // F numbers slots; rest[] holds the positions in the caller's vertex order.
+      const int p0 = slot_vertex[F[3 * f]], p1 = slot_vertex[F[3 * f + 1]], p2 = slot_vertex[F[3 * f + 2]];
       real a[3], b[3];
       for (int c = 0; c < 3; ++c) {
         a[c] = r_sub(rest[3 * p1 + c], rest[3 * p0 + c]);
