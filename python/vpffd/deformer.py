@@ -370,7 +370,7 @@ class Deformer:
         part_targets = None
         if target_volume is not None and self._core.has_parts and np.ndim(target_volume) > 0:
             arr = np.asarray(target_volume)
-            if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+            if not _arrays.is_real(arr.dtype):
                 raise TypeError(f"target_volume: expected numbers, got dtype {arr.dtype}")
             if arr.shape != (self._core.n_parts,):
                 raise InvalidInputError(f"target_volume: expected one volume per part ({self._core.n_parts}), "

@@ -1,3 +1,4 @@
+import importlib.util
 from pathlib import Path
 
 import pytest
@@ -5,6 +6,19 @@ import pytest
 import vpffd
 
 SHARED_MESHES = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "meshes"
+BENCH_PYTHON = Path(__file__).resolve().parents[2] / "bench" / "python"
+
+
+@pytest.fixture(scope="session")
+def load_bench():
+    """load_bench(name): bench/python/<name>.py as a module (the benchmarks are scripts,
+    not a package), for tests of their arithmetic."""
+    def load(name: str):
+        spec = importlib.util.spec_from_file_location(name, BENCH_PYTHON / f"{name}.py")
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        return mod
+    return load
 
 
 @pytest.fixture(scope="session")

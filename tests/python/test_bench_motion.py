@@ -1,23 +1,15 @@
 """bench/python/bench_motion.py's measurement on a small scene: what each of its
 columns holds (the timing itself runs only in the benchmark)."""
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import vpffd
 from vpffd import animate, edits
 
-ROOT = Path(__file__).resolve().parents[2]
-
 
 @pytest.fixture(scope="module")
-def bench_motion():
-    spec = importlib.util.spec_from_file_location("bench_motion", ROOT / "bench" / "python" / "bench_motion.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+def bench_motion(load_bench):
+    return load_bench("bench_motion")
 
 
 @pytest.mark.parametrize("preserve", [False, True])

@@ -1,19 +1,11 @@
 """bench/python/bench_peers.py's arithmetic: the per-round paired ratios and the
 table built from them (the timing itself runs only in the benchmark)."""
-import importlib.util
-from pathlib import Path
-
 import pytest
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
-def peers():
-    spec = importlib.util.spec_from_file_location("bench_peers", ROOT / "bench" / "python" / "bench_peers.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+def peers(load_bench):
+    return load_bench("bench_peers")
 
 
 def test_round_ratios_pair_each_rounds_medians(peers):

@@ -127,10 +127,6 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   // 48 bits) and keeps positions in float32: past 2^24 box extents nothing of the place
   // within the box would be left, so such a position is refused (the CPU takes it).
   const double far_extents = std::ldexp(1.0, 24);
-  auto too_far = [&](const Vector3d& x, int a) {
-    const double ext = L.box_max[a] - L.box_min[a];
-    return L.periodic(a) && !(std::abs(x[a] - 0.5 * (L.box_min[a] + L.box_max[a])) <= far_extents * ext);
-  };
   // In parallel: this is the host's share of a move with the rest volume (the device
   // embeds and sorts), and serial it cost several device frames (5.9 ms for the 112,848
   // whales on an H100 machine against a 1.1 ms frame). In the caller's vertex order: X is
@@ -140,9 +136,7 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   // The tests as "inside" comparisons, which a NaN fails (an infinity fails the parameter
   // range): one form for every test and lane, so that without periodic axes the loop
   // takes four vertices (12 coordinates) a step with the axis constants repeated four
-  // times, and vectorises (the dragon's 435,545 vertices, 1 thread, the loop alone:
-  // 4.1 ms as written per vertex and axis, 1.6 as 12 lanes, as long as copying the
-  // positions). Constants in locals: read through `L` or this Impl, they were reloaded
+  // times, and vectorises (bench/results/vulkan_move_host_vm.md). Constants in locals: read through `L` or this Impl, they were reloaded
   // after every store into the upload buffer (which might alias them). On a periodic
   // axis the test is of the wrapped position and the far limit is finite; elsewhere the
   // limit is infinite (a NaN fails it too, but is refused as bad first).
@@ -230,8 +224,8 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   if (far)
     for (Index v = 0; v < nv; ++v)
       for (int a = 0; a < 3; ++a)
-        VPFFD_CHECK(!too_far(X.row(v).transpose(), a), where, ": vertex ", v, " lies ",
-                    std::abs(X(v, a) - 0.5 * (L.box_min[a] + L.box_max[a])) / (L.box_max[a] - L.box_min[a]),
+        VPFFD_CHECK(std::abs(X(v, a) - c.centre[a]) <= c.far[a], where, ": vertex ", v, " lies ",
+                    std::abs(X(v, a) - c.centre[a]) / (L.box_max[a] - L.box_min[a]),
                     " box extents away along periodic axis ", "xyz"[a],
                     "; the Vulkan backend wraps positions up to 2^24 extents away (its float32 positions keep "
                     "nothing of the place in the box beyond); move the mesh back by whole extents");
