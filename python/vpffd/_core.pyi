@@ -175,19 +175,19 @@ class Deformer:
         ...
     def basis_matrix(self, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
         ...
+    def basis_transpose(self, values: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
+        ...
     def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions = ...) -> dict:
         """
         One frame (vpffd::Deformer::deform): the result as a dict (vertices, control_points, offsets, volumes, steps, [part volumes], [timings]).
         """
+    def deformed_normals(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], rest_normals: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        ...
     def face_matrix(self, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
         ...
     def face_matrix_nnz(self, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> int:
         ...
     def ffd(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
-        ...
-    def basis_transpose(self, values: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
-        ...
-    def deformed_normals(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], rest_normals: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
         ...
     def jacobian_determinants(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
         ...
@@ -196,7 +196,13 @@ class Deformer:
     def rest_part_volumes(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
         ...
     def rest_volume(self, allow_open: bool = False) -> float:
-        ...
+        """
+        Enclosed volume of the current rest mesh, summed on first use after a move.
+        """
+    def rest_volume_of(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> float:
+        """
+        The rest volume set_rest_vertices(vertices) would give (the same sum), without moving.
+        """
     def set_rest_vertices(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
         ...
     def volume_coefficients(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], axis: typing.SupportsInt | typing.SupportsIndex, method: str = 'traversal', threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"], float]:
@@ -230,6 +236,9 @@ class Deformer:
         ...
     @property
     def rest_vertices(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        ...
+    @property
+    def rest_volume_known(self) -> bool:
         ...
     @property
     def vertex_parts(self) -> numpy.typing.NDArray[numpy.int32]:
@@ -286,23 +295,23 @@ class MultiresFFD:
         """
         (vertices (V, 3), unit normals (V, 3)).
         """
-    def foot_values_jacobians(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"], typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]"]]:
-        """
-        (D at the foot points (V, 3), Jacobians (V, 9)).
-        """
-    def foot_values_jacobians_per_point(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
-        """
-        foot_values_jacobians with the per-point kernel (the reference).
-        """
     def deform_per_point(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
         """
         deform() with the per-point kernel (its reference): (vertices (V, 3), unit normals (V, 3)).
         """
-    @property
-    def uses_cell_runs(self) -> bool:
-        ...
+    def foot_values_jacobians(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"], typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]"]]:
+        """
+        (D at the foot points (V, 3), Jacobians (V, 9)).
+        """
+    def foot_values_jacobians_per_point(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"], typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]"]]:
+        """
+        foot_values_jacobians with the per-point kernel (the reference).
+        """
     @property
     def held_bytes_per_vertex(self) -> int:
+        ...
+    @property
+    def uses_cell_runs(self) -> bool:
         ...
 class RbfWeights:
     """
@@ -340,7 +349,7 @@ class RbfMap:
     def n_handles(self) -> int:
         ...
 class VulkanDeformer:
-    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], lattice: LatticeSpec, outside: str = 'error', device: str = '', precision: str = 'auto') -> None:
+    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], lattice: LatticeSpec, outside: str = 'error', device: str = '', precision: str = 'auto', parts: typing.Any = None) -> None:
         ...
     def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions = ..., read_vertices: bool = True, normals: bool = False) -> dict:
         """
@@ -348,12 +357,28 @@ class VulkanDeformer:
         """
     def last_timings(self) -> dict:
         ...
+    def rest_part_volumes(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
+        """
+        (K,) each part's volume of the current rest mesh (the whole mesh's without parts).
+        """
+    def rest_volume(self, allow_open: bool = False) -> float:
+        """
+        Enclosed volume of the current rest mesh (raises for an open mesh unless allow_open), summed on the host on first use after a move.
+        """
+    def rest_volume_of(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> float:
+        """
+        The rest volume set_rest_vertices(vertices) would give (the same sum), without moving.
+        """
+    def set_rest_vertices(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> None:
+        """
+        Moves the rest mesh (V, 3): embedded and sorted by cell on the device (see vpffd::vulkan::VulkanDeformer::set_rest_vertices).
+        """
     def vertices(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
         ...
     @property
     def cpu(self) -> Deformer:
         """
-        The CPU Deformer of the same mesh (rest volume, ffd, jacobians, matrices).
+        The CPU Deformer of the current rest mesh (ffd, jacobians, matrices); after set_rest_vertices the first access re-embeds it on the host.
         """
     @property
     def device(self) -> dict:
@@ -369,6 +394,14 @@ class VulkanDeformer:
         """
         How the device sums: 'float64' or 'float-float'.
         """
+    @property
+    def rest_vertices(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        """
+        (V, 3) the current rest vertices (a copy).
+        """
+    @property
+    def rest_volume_known(self) -> bool:
+        ...
     @property
     def scale(self) -> float:
         """
@@ -391,7 +424,7 @@ class VulkanMultires:
         """
         (vertices (V, 3), approximate unit normals (V, 3)), input order.
         """
-    def deform_after(self, correction: VulkanDeformer, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions, base: VulkanDeformer | None = None) -> tuple:
+    def deform_after(self, correction: VulkanDeformer, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions, base: VulkanDeformer = None) -> tuple[typing.Any, typing.Any, typing.Any, dict]:
         """
         One submission: correction's frame (as VulkanDeformer.deform), then the reconstruction from its corrected control points (and, with base, the base Deformer's FFD of them): (vertices, normals, base vertices, the correction's result dict without 'vertices').
         """

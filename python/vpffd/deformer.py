@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import warnings
+import weakref
 
 import numpy as np
 import scipy.sparse as sp
@@ -15,7 +16,7 @@ from .lattice import Lattice, _check_memory
 from .backends import (AUTO_GPU_MIN_VERTICES, _requested_precision, _resolve_backend,  # noqa: F401
                        available_backends, vulkan_devices)
 from .mesh import Mesh
-from .result import DeformResult
+from .result import DeformResult, RestVolumeSource
 
 InvalidInputError = _core.InvalidInputError
 BackendUnavailableError = _core.BackendUnavailableError
@@ -134,10 +135,32 @@ class Deformer:
         # building one from keywords costs about as much as the FFD of 500 vertices, and an
         # animation asks for the same few every frame. The core only reads them.
         self._plain_options = {}
+        # DeformResult.rest_volume before it is summed (result.py): the current rest
+        # mesh's source, and every source handed out to a result and not read yet.
+        self._rest_source = RestVolumeSource(self)
+        self._rest_sources_out = weakref.WeakSet()
         if labels is not None:
             _check_memory(lattice.n_control_points, f"Deformer with {self._core.n_parts} parts",
                           _FRAME_BYTES_PER_CONTROL_POINT + _FRAME_BYTES_PER_CONTROL_POINT_AND_PART * self._core.n_parts,
                           _BYTES_PER_VERTEX * self.mesh.n_vertices)
+
+    def __del__(self):
+        # Results refer to their Deformer weakly: what they have not read of the rest
+        # volume is summed now, while the core is still here.
+        out = getattr(self, "_rest_sources_out", None)
+        if not out:
+            return
+        holder = self._holder
+        for source in list(out):
+            try:
+                source.resolve(holder)
+            except Exception:  # noqa: BLE001 (a finaliser must not raise; the read will say so)
+                pass
+
+    @property
+    def _holder(self):
+        """The object holding the current rest mesh and its volume: the Vulkan deformer or the CPU core."""
+        return self._vk if self._vk is not None else self._core
 
     @property
     def _d(self):
@@ -148,8 +171,8 @@ class Deformer:
     # --- properties -----------------------------------------------------------
     @property
     def rest_volume(self) -> float:
-        """Volume of the rest mesh (raises for an open mesh)."""
-        return self._vk.rest_volume() if self._vk is not None else self._core.rest_volume()
+        """Volume of the rest mesh (raises for an open mesh); after a move summed on first use."""
+        return self._holder.rest_volume()
 
     @property
     def rest_vertices(self) -> np.ndarray:
@@ -186,15 +209,17 @@ class Deformer:
         exactly as a Deformer built on that mesh would: new embedding, processing
         order and rest volume(s), so an object can travel through the lattice frame
         by frame. On the CPU it costs each vertex's cell, a counting sort by cell, the
-        embedding (straight into the sorted order), the rest volume and relabelling
-        the vertex fans in place (nothing of that when no vertex changed its cell; the
-        faces are renumbered only when a frame needs them, which a volume-preserving
-        frame of a closed mesh does not): 2-3 plain FFD frames, 0.5-0.8 of a
-        volume-preserving one on one thread. On "vulkan"
-        only the vertices go to the device, which embeds them and sorts them by
-        lattice cell itself, first thing in the next frame's submission (the rest
-        volume is summed on the host in float64); the result equals a Vulkan Deformer
-        built on the moved mesh within the backend's float32 tolerance
+        embedding (straight into the sorted order) and relabelling the vertex fans in
+        place (nothing of that when no vertex changed its cell; the faces are
+        renumbered only when a frame needs them, which a volume-preserving frame of a
+        closed mesh does not): 2-3 plain FFD frames, 0.5-0.8 of a volume-preserving
+        one on one thread. The new rest volume is summed when first needed: by a
+        volume-preserving frame (its target), ``rest_volume``, or a result's
+        ``rest_volume`` when read; a plain frame does not sum it. On "vulkan" only
+        the vertices go to the device, which embeds them and sorts them by lattice
+        cell itself, first thing in the next frame's submission (the rest volume is
+        summed on the host in float64); the result equals a Vulkan Deformer built on
+        the moved mesh within the backend's float32 tolerance
         (``bench/python/bench_motion.py`` measures both). ``mesh`` becomes a new
         Mesh of these vertices; the caller's array is copied, never modified.
 
@@ -206,10 +231,15 @@ class Deformer:
             The Deformer is unchanged then.
         """
         X = _arrays.points(vertices, "set_rest_vertices: vertices", rows=self.mesh.n_vertices)
+        holder = self._holder
+        known = holder.rest_volume(True) if holder.rest_volume_known else None
         if self._vk is not None:
             self._vk.set_rest_vertices(X)
         else:
             self._core.set_rest_vertices(X, self._threads)
+        # Results of the old rest mesh that have not read its volume sum it from its vertices.
+        self._rest_source.retire(self.mesh.vertices, known)
+        self._rest_source = RestVolumeSource(self)
         self.mesh = self.mesh._with_vertices(X)
 
     @property
@@ -403,10 +433,15 @@ class Deformer:
         folds = _folds.check_frame(self, r["control_points"], on_fold, self._restore_last_frame)
         if self._vk is not None:
             self._last_frame = (np.array(P), opts)  # P may be a view of the caller's array
+        holder = self._holder
         if not (self._core.is_closed or allow_open):
             rest = float("nan")
+        elif holder.rest_volume_known:
+            rest = holder.rest_volume(True)
         else:
-            rest = self._vk.rest_volume(True) if self._vk is not None else self._core.rest_volume(True)
+            # Summed when the result's rest_volume is first read, if ever (result.py).
+            rest = self._rest_source
+            self._rest_sources_out.add(rest)
         return DeformResult(
             vertices=r["vertices"],
             control_points=r["control_points"].reshape(*self.lattice.shape, 3),

@@ -1,6 +1,7 @@
 """DeformResult: one deformed frame, as every backend returns it."""
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -25,6 +26,11 @@ class DeformResult:
     volume_before : float
         volume after the plain FFD, before any correction.
     target_volume, rest_volume : float
+        the volume aimed at (NaN without ``preserve_volume``) and that of the rest mesh
+        the frame deformed (NaN for an open mesh without ``allow_open``). After a move of
+        the rest mesh a frame that does not need the rest volume does not sum it:
+        ``rest_volume`` is then summed when first read (the same number, one pass
+        over the faces; ``RestVolumeSource``).
     constraint_error : float
         largest coordinate error of the point constraints (0 without constraints).
     steps : list of dict
@@ -66,6 +72,26 @@ class DeformResult:
     part_volumes_before: np.ndarray = None
     part_target_volumes: np.ndarray = None
 
+    def __post_init__(self):
+        # A RestVolumeSource in place of the number: kept aside until rest_volume is read.
+        if isinstance(self.rest_volume, RestVolumeSource):
+            self.__dict__["_rest_volume_source"] = self.__dict__.pop("rest_volume")
+
+    def __getattr__(self, name):
+        # Reached only for attributes not set: rest_volume before its first read.
+        source = self.__dict__.get("_rest_volume_source") if name == "rest_volume" else None
+        if source is None:
+            raise AttributeError(f"'{type(self).__name__}' object has no attribute '{name}'")
+        value = source()
+        self.__dict__["rest_volume"] = value
+        del self.__dict__["_rest_volume_source"]
+        return value
+
+    def __getstate__(self):
+        # Copies and pickles carry the number, not the source (which refers to a Deformer).
+        _ = self.rest_volume
+        return dict(self.__dict__)
+
     def to_trimesh(self):
         """The deformed mesh as a ``trimesh.Trimesh`` (vertex order kept; needs trimesh)."""
         if self.faces is None:
@@ -90,3 +116,49 @@ class DeformResult:
         if self.rest_volume == 0:
             return float("nan")
         return (self.volume_before - self.rest_volume) / self.rest_volume
+
+
+class RestVolumeSource:
+    """DeformResult.rest_volume before its first read: the volume of the rest mesh a
+    frame deformed, summed on demand. After a move the rest volume is summed on first
+    use (plain frames and the move itself do not need it), and a result asks for it
+    only if it is read.
+
+    While the rest mesh is the Deformer's current one it asks the core, which keeps the
+    sum. When the rest mesh moves on, the source keeps the old rest vertices (or their
+    sum, if it was known) and asks for their sum (``rest_volume_of``: the same faces,
+    parts and order, the same bits). It refers to its Deformer weakly: a Deformer about
+    to go sums what its results have not read (``Deformer.__del__``), so results never
+    keep a Deformer's memory alive."""
+    __slots__ = ("_deformer", "_vertices", "_value", "__weakref__")
+
+    def __init__(self, deformer):
+        self._deformer = weakref.ref(deformer)
+        self._vertices = None  # None while this is the Deformer's current rest mesh
+        self._value = None
+
+    @property
+    def pending(self) -> bool:
+        return self._value is None
+
+    def retire(self, vertices, value=None):
+        """The Deformer's rest mesh moves on from ``vertices``; ``value`` is their sum if known."""
+        if self._value is None:
+            self._value = value
+            self._vertices = vertices if value is None else None
+
+    def resolve(self, holder) -> float:
+        """The sum, asked of ``holder`` (the Deformer's core or Vulkan deformer) if not known."""
+        if self._value is None:
+            self._value = float(holder.rest_volume(True) if self._vertices is None
+                                else holder.rest_volume_of(self._vertices))
+            self._vertices = None
+        return self._value
+
+    def __call__(self) -> float:
+        if self._value is None:
+            d = self._deformer()
+            if d is None:  # Deformer.__del__ resolves every source it handed out first
+                raise RuntimeError("rest_volume: the Deformer of this result is gone before its rest volume was summed")
+            return self.resolve(d._holder)
+        return self._value

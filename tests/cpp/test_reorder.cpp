@@ -307,3 +307,38 @@ TEST(MovingRest, OpenMeshPartsAndPeriodicEqualAFreshDeformer) {
     expect_same_deformer(D, Deformer(X, two.F, L, OutsidePolicy::Error, 1, &parts), X, P);
   }
 }
+
+TEST(MovingRest, RestVolumeWaitsForItsFirstUseAndIsTheEagerSum) {
+  const TriMesh m = icosphere(3);
+  const Lattice L = lattice_around(m.V, {6, 6, 6}, 3, 0.4);
+  const RowMatrixX3d P = twist(rest_control_points(L), 0.6, 2, 0.5 * (L.box_min + L.box_max));
+  Deformer D(m.V, m.F, L, OutsidePolicy::Error, 2);
+  EXPECT_FALSE(D.rest_volume_known());
+  const RowMatrixX3d X = moved(m.V, Vector3d(0.07, -0.05, 0.03), 0.01);
+  const double want = signed_volume(X, m.F, D.origin());  // the eager sum: same function, faces, origin
+  EXPECT_EQ(D.rest_volume_of(X), want);
+  D.set_rest_vertices(X, 2);
+  CorrectionOptions plain;
+  plain.preserve_volume = false;
+  const DeformResult r = D.deform(P, plain);
+  EXPECT_FALSE(D.rest_volume_known()) << "a plain frame does not need the rest volume";
+  EXPECT_TRUE(std::isnan(r.target_volume));
+  const DeformResult k = D.deform(P, {});  // its target is the rest volume
+  EXPECT_TRUE(D.rest_volume_known());
+  EXPECT_EQ(k.target_volume, want);
+  EXPECT_EQ(D.rest_volume(), want);
+  EXPECT_THROW(D.rest_volume_of(X.topRows(5)), InvalidInputError);
+}
+
+TEST(MovingRest, RestVolumeBoundSumsAtOnceWhereItMightOverflow) {
+  Lattice L = lattice_around(icosphere(1).V, {4, 4, 4}, 3, 0.1);
+  EXPECT_TRUE(rest_volume_stays_finite(L, 1000000));
+  // 1e97-unit boxes: R ~ 1.7e100, R^3 ~ 5e300 per face.
+  for (int a = 0; a < 3; ++a) L.box_max[a] = L.box_min[a] + 1e97;
+  EXPECT_FALSE(rest_volume_stays_finite(L, 1));
+  const TriMesh m = icosphere(2);
+  Lattice Lp = lattice_around(m.V, {6, 6, 6}, 3, 0.4);
+  Lattice periodic = make_lattice(Lp.box_min, Lp.box_max, {6, 6, 6}, {3, 3, 3}, {Seam::Shift, Seam::None, Seam::None});
+  EXPECT_FALSE(rest_volume_stays_finite(periodic, 1)) << "positions along a periodic axis have no bound";
+  EXPECT_TRUE(Deformer(m.V, m.F, periodic).rest_volume_known());
+}

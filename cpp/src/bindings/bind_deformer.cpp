@@ -72,7 +72,13 @@ void bind_deformer(py::module_& m) {
       .def_property_readonly("n_faces", &Deformer::n_faces)
       .def_property_readonly("n_control_points", &Deformer::n_control_points)
       .def_property_readonly("is_closed", &Deformer::is_closed)
-      .def("rest_volume", &Deformer::rest_volume, py::arg("allow_open") = false)
+      .def("rest_volume", &Deformer::rest_volume, py::arg("allow_open") = false,
+           py::call_guard<py::gil_scoped_release>(),
+           "Enclosed volume of the current rest mesh, summed on first use after a move.")
+      .def_property_readonly("rest_volume_known", &Deformer::rest_volume_known)
+      .def("rest_volume_of", &Deformer::rest_volume_of, py::arg("vertices"), py::arg("threads") = 0,
+           py::call_guard<py::gil_scoped_release>(),
+           "The rest volume set_rest_vertices(vertices) would give (the same sum), without moving.")
       .def_property_readonly("bytes_per_vertex", &Deformer::bytes_per_vertex)
       .def_property_readonly("origin", &Deformer::origin)
       .def(

@@ -88,7 +88,13 @@ void bind_vulkan(py::module_& m) {
           "rest_vertices", [](const VulkanDeformer& d) { return RowMatrixX3d(d.rest_vertices()); },
           "(V, 3) the current rest vertices (a copy).")
       .def("rest_volume", &VulkanDeformer::rest_volume, py::arg("allow_open") = false,
-           "Enclosed volume of the current rest mesh (raises for an open mesh unless allow_open).")
+           py::call_guard<py::gil_scoped_release>(),
+           "Enclosed volume of the current rest mesh (raises for an open mesh unless allow_open), "
+           "summed on the host on first use after a move.")
+      .def_property_readonly("rest_volume_known", &VulkanDeformer::rest_volume_known)
+      .def("rest_volume_of", &VulkanDeformer::rest_volume_of, py::arg("vertices"),
+           py::call_guard<py::gil_scoped_release>(),
+           "The rest volume set_rest_vertices(vertices) would give (the same sum), without moving.")
       .def_property_readonly("device", [](const VulkanDeformer& d) { return device_to_python(d.device()); })
       .def_property_readonly("origin", &VulkanDeformer::origin)
       .def_property_readonly("scale", &VulkanDeformer::scale,

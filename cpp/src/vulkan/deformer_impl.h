@@ -130,7 +130,6 @@ struct VulkanDeformer::Impl {
   // Deformer's part_faces() (fixed at construction), as its own moves do.
   int K = 1;
   std::uint32_t g_part = 1;
-  VectorXd rest_part_vol;  // K, with parts: each part's rest volume (the default targets)
   std::uint32_t g_vert = 1, g_face = 1, g_cp = 1, g_tile = 1;
   // combine.comp: invocations per coefficient row (its LANES) and workgroups.
   int row_lanes = 1;
@@ -145,7 +144,9 @@ struct VulkanDeformer::Impl {
   // never change; a move re-embeds and re-sorts the slots on the device.
   std::vector<std::int32_t> slot;
   RowMatrixX3d rest;         // input order, world units
-  double rest_vol = 0;       // cone volume from the origin, as Deformer::rest_volume(true)
+  // The rest volume (cone volume from the origin, as Deformer::rest_volume(true)) and,
+  // with parts, each part's (the default targets): summed from `rest` on first use.
+  LazyRestVolumes rest_vols;
   bool moved = false;        // set_rest_vertices ran: `cpu` may lag behind (cpu_stale)
   bool cpu_stale = false;    // `cpu` is of an older rest mesh (synced_cpu() re-embeds it)
   std::mutex cpu_mutex;
@@ -333,6 +334,15 @@ struct VulkanDeformer::Impl {
     }
   }
   const Deformer& synced_cpu();
+  // The volumes of rest positions X: with parts (K > 1) each part's over the CPU
+  // Deformer's part_faces() and their sum, else signed_volume over its faces.
+  RestVolumes measure_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) const {
+    return measure_rest_volumes(X, cpu->faces(), K > 1 ? &cpu->part_faces() : nullptr, cpu->part_face_start(), origin,
+                                0, where);
+  }
+  const RestVolumes& rest_volumes() const {
+    return rest_vols.get([&] { return measure_rest(rest, "rest_volume"); });
+  }
   const CorrectionOptions& plan_options(const CorrectionOptions& opt, CorrectionOptions& storage) const;
   void create_pipelines(const std::array<std::int32_t, 16>& spec);
 

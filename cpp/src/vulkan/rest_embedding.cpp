@@ -15,10 +15,12 @@
 //   too-far and outside tests ride along, with the CPU's rule in double: exactly the
 //   vertices Deformer::set_rest_vertices refuses are refused (no device counter, no
 //   read-back), and in that error case the CPU's embed() runs to give its exact
-//   message (how many, the first one). The rest volume is computed on the host
-//   in float64 (signed_volume, O(F), no embedding): the very number a CPU Deformer of
-//   the moved mesh keeps, so preserve_volume aims at the same target on both
-//   backends; a device sum in reals would round differently and need a read-back.
+//   message (how many, the first one). The rest volume is summed on the host in
+//   float64 (signed_volume, O(F), no embedding) on its first use after the move
+//   (frame/rest_volume.h: a plain frame does not read it): the very number a CPU
+//   Deformer of the moved mesh keeps, so preserve_volume aims at the same target on
+//   both backends; the device's volumes sum float32 positions, which would miss it by
+//   ~1e-7.
 // - A move's device work (embed_cb, recorded once) is not submitted by
 //   set_rest_vertices: it goes first in the next frame's submission (one submission
 //   and one wait per frame, as the paper's two-phase evaluation runs), or alone when
@@ -42,12 +44,12 @@
 // - Point constraints at vertices take their basis at the vertex's current rest
 //   position: after a move frames pass them to the CPU's plan as point constraints at
 //   that position (the plan embeds those few points on the host). The default volume
-//   target is rest_vol, at construction too (the same code, so moving back to the
+//   target is rest_volumes(), at construction too (the same code, so moving back to the
 //   construction's positions gives its frames bit for bit).
 // - Parts: embed.comp puts each slot's part above its cell in the sort key, so the sort
 //   groups each part's slots (as the CPU's part_start) and tiles never straddle parts;
 //   the rest part volumes are summed on the host (part_volumes over the faces grouped
-//   by part, the CPU's own function and face order), their sum is rest_vol.
+//   by part, the CPU's own function and face order), their sum is the rest volume.
 // - The CPU Deformer `cpu` (edges, ffd, jacobians, matrices, error messages) follows a
 //   move lazily: frames do not need it, and synced_cpu() re-embeds it on the host on
 //   its first use after a move.
@@ -240,20 +242,26 @@ void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     if (embed_pending) stage_rest(rest, where);
     throw;
   }
-  // With parts the rest volume is the sum of theirs, as the CPU Deformer's.
-  VectorXd part_vol;
-  if (K > 1) part_vol = part_volumes(X, cpu->part_faces(), cpu->part_face_start(), origin);
-  const double vol = K > 1 ? part_vol.sum() : signed_volume(X, cpu->faces(), origin);
-  VPFFD_CHECK(std::isfinite(vol), where, ": the mesh's enclosed volume overflows double precision (", vol,
-              "; coordinates up to ", X.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
+  // The rest volumes wait for their first use, as the CPU Deformer's (frame/rest_volume.h):
+  // a plain frame does not read them. Where they might overflow they are summed, and
+  // refused, now.
+  const bool eager = !rest_volume_stays_finite(cpu->lattice(), cpu->n_faces());
+  RestVolumes vols;
+  if (eager) {
+    try {
+      vols = measure_rest(X, where);
+    } catch (...) {
+      if (embed_pending) stage_rest(rest, where);  // as above: the waiting move's positions again
+      throw;
+    }
+  }
   embed_pending = true;
   if (!defer) flush_embedding();
   // In parallel, as the CPU Deformer copies its rest vertices (a stream of 24 bytes a
   // vertex each way: 1.4-1.9 ms for the dragon on one thread).
   rest.resize(nv, 3);
   parallel_range(nv, 0, [&](Index b, Index e) { rest.middleRows(b, e - b) = X.middleRows(b, e - b); });
-  rest_vol = vol;
-  rest_part_vol = K > 1 ? part_vol : VectorXd::Constant(1, vol);
+  rest_vols.reset(std::move(vols), eager);
   normals_ready = false;  // the rest normals are of the old positions
 }
 
@@ -293,7 +301,14 @@ const RowMatrixX3d& VulkanDeformer::rest_vertices() const { return impl_->rest; 
 
 double VulkanDeformer::rest_volume(bool allow_open) const {
   if (!allow_open) require_closed(impl_->cpu->edges(), "rest_volume");
-  return impl_->rest_vol;
+  return impl_->rest_volumes().total;
+}
+
+bool VulkanDeformer::rest_volume_known() const { return impl_->rest_vols.known(); }
+
+double VulkanDeformer::rest_volume_of(const Eigen::Ref<const RowMatrixX3d>& X) const {
+  VPFFD_CHECK(X.rows() == impl_->nv, "rest_volume_of: ", X.rows(), " vertices, the mesh has ", impl_->nv);
+  return impl_->measure_rest(X, "rest_volume_of").total;
 }
 
 }  // namespace vpffd::vulkan

@@ -75,7 +75,10 @@ std::uint64_t VulkanDeformer::index_buffer_handle() const {
   return reinterpret_cast<std::uint64_t>(impl_->buf[Impl::bF].handle());
 }
 const std::vector<std::int32_t>& VulkanDeformer::vertex_order() const { return impl_->slot; }
-VectorXd VulkanDeformer::rest_part_volumes() const { return impl_->rest_part_vol; }
+VectorXd VulkanDeformer::rest_part_volumes() const {
+  const RestVolumes& v = impl_->rest_volumes();
+  return impl_->K > 1 ? v.parts : VectorXd::Constant(1, v.total);
+}
 
 RowMatrixX3d VulkanDeformer::vertices() const {
   std::lock_guard<std::mutex> lock(impl_->frame_mutex);
@@ -105,9 +108,10 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   // the same number at construction and after any move; with parts each part's.
   const bool has_parts = cpu.has_parts();
   const int K = m.K;
-  if (std::isnan(opt.target_volume) && opt.part_targets.empty()) {
-    pl.target = m.rest_vol;
-    if (has_parts) pl.part_targets = m.rest_part_vol;
+  if (opt.preserve_volume && std::isnan(opt.target_volume) && opt.part_targets.empty()) {
+    const RestVolumes& rest = m.rest_volumes();  // summed here on the first such frame after a move
+    pl.target = rest.total;
+    if (has_parts) pl.part_targets = K > 1 ? rest.parts : VectorXd::Constant(1, rest.total);
   }
   const bool correcting = pl.correcting;
   const bool measure = pl.measure;

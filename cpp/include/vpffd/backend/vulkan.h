@@ -164,8 +164,8 @@ class VulkanDeformer {
   /// embedding (span and local parameter per vertex) and the sort of the vertices by
   /// lattice cell run there, with the CPU's rules (lattice/embed.h; on periodic axes the
   /// wrap into the box, with a shift seam's translation and a twist seam's mirror, is
-  /// done there too). The rest volume is
-  /// computed on the host in float64 (O(F)). The vertex order of the device buffers
+  /// done there too). The rest volume is summed on the host in float64 (O(F)) on its
+  /// first use (frame/rest_volume.h): a plain frame does not need it. The vertex order of the device buffers
   /// (vertex_order()) and the faces do not change. Not to be called while a frame runs.
   /// The device work is not submitted here: it runs first in the next frame's
   /// submission (one submission and one wait per frame), or alone when vertices() is
@@ -184,6 +184,10 @@ class VulkanDeformer {
   /// Enclosed volume of the current rest mesh, as Deformer::rest_volume.
   /// @throws InvalidInputError for an open mesh, unless `allow_open`
   double rest_volume(bool allow_open = false) const;
+  /// Whether the rest volume is summed already (it is on first use after a move).
+  bool rest_volume_known() const;
+  /// The rest volume a move to X would give, without moving (Deformer::rest_volume_of).
+  double rest_volume_of(const Eigen::Ref<const RowMatrixX3d>& X) const;
 
   /// Enclosed volume of each part of the current rest mesh (K; the whole mesh's
   /// without parts), as Deformer::rest_part_volumes of a Deformer built on it.

@@ -25,6 +25,7 @@
 #include "vpffd/correction/plan.h"
 #include "vpffd/correction/solve.h"
 #include "vpffd/correction/tied_solve.h"
+#include "vpffd/frame/rest_volume.h"
 #include "vpffd/ffd/basis_matrix.h"
 #include "vpffd/ffd/cell_runs.h"
 #include "vpffd/ffd/kernels.h"
@@ -75,8 +76,9 @@ class Deformer {
 
   /// Moves the rest mesh to X (same faces): the next frame deforms X as a Deformer
   /// built on it would (same embedding, processing order, rest volumes; the same
-  /// results bit for bit). The faces, their checks and the parts are kept. Not to be
-  /// called while a frame runs on this Deformer.
+  /// results bit for bit). The faces, their checks and the parts are kept. The rest
+  /// volumes are summed on first use (frame/rest_volume.h). Not to be called while a
+  /// frame runs on this Deformer.
   /// @param[in] X  #V x 3 new rest vertices
   /// @throws InvalidInputError for a wrong shape, non-finite coordinates, or vertices
   ///         outside the lattice box (unless built with OutsidePolicy::Extrapolate);
@@ -160,14 +162,28 @@ class Deformer {
   /// and then only when it is closed). @throws InvalidInputError for an open mesh
   VectorXd rest_part_volumes() const {
     if (!has_parts_) return VectorXd::Constant(1, rest_volume());
-    return rest_part_volumes_;
+    return rest_volumes().parts;
   }
 
-  /// Enclosed volume of the rest mesh. @throws InvalidInputError if it is not
+  /// Enclosed volume of the rest mesh, summed on its first use after a move
+  /// (frame/rest_volume.h) and kept. @throws InvalidInputError if it is not
   /// closed, unless `allow_open` (then: the cone volume from origin()).
   double rest_volume(bool allow_open = false) const {
     if (!allow_open) require_closed(edges_, "rest_volume");
-    return rest_volume_;
+    return rest_volumes().total;
+  }
+
+  /// Whether the rest volume is summed already (rest_volume() then costs nothing).
+  bool rest_volume_known() const { return rest_volumes_.known(); }
+
+  /// The rest volume a move to X would give, without moving: the same sum, faces
+  /// and parts, so the same bits as rest_volume(true) after set_rest_vertices(X)
+  /// (for a rest mesh this Deformer no longer holds). X is not embedded: its
+  /// vertices may lie anywhere.
+  /// @throws InvalidInputError for a wrong shape or a volume past double range
+  double rest_volume_of(const Eigen::Ref<const RowMatrixX3d>& X, int threads = 0) const {
+    VPFFD_CHECK(X.rows() == n_vertices(), "rest_volume_of: ", X.rows(), " vertices, the mesh has ", n_vertices());
+    return measure_rest(X, threads, "rest_volume_of").total;
   }
 
   /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
@@ -310,6 +326,16 @@ class Deformer {
   FramePlan plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
 
  private:
+  /// The rest volumes of V (the rest vertices or any others in their place): with
+  /// parts each part's over its faces, their sum the total; one face pass either way.
+  RestVolumes measure_rest(const Eigen::Ref<const RowMatrixX3d>& V, int threads, const char* where) const {
+    return measure_rest_volumes(V, F_, has_parts_ ? &Fp_ : nullptr, face_start_, origin_, threads, where);
+  }
+  /// Those of V_, summed on first use.
+  const RestVolumes& rest_volumes() const {
+    return rest_volumes_.get([&] { return measure_rest(V_, 0, "rest_volume"); });
+  }
+
   /// Everything that depends on the rest positions, from V: embedding, processing
   /// orders (by part, then by cell), renumbered faces, rings, rest volumes. Computed
   /// aside and then swapped in, so a throw leaves the Deformer as it was.
@@ -328,20 +354,15 @@ class Deformer {
     } catch (const InvalidInputError& e) {
       throw InvalidInputError(std::string(where) + ": " + e.what() + parts_outside(V));
     }
-    // With parts the rest volume is the sum of theirs (the frames' default target is
-    // too), each summed over its faces: one face pass either way.
-    VectorXd part_rest;
-    if (has_parts_) part_rest = part_volumes(V, Fp_, face_start_, origin_, threads);
-    const double rest_volume = has_parts_ ? part_rest.sum() : signed_volume(V, F_, origin_, threads);
-    // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
-    // and every volume a frame reports or aims at would be inf or NaN.
-    VPFFD_CHECK(std::isfinite(rest_volume), where, ": the mesh's enclosed volume overflows double precision (",
-                rest_volume, "; coordinates up to ", V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
+    // The rest volumes wait for their first use (frame/rest_volume.h), unless they
+    // might overflow: then they are summed, and refused, here.
+    const bool eager = !rest_volume_stays_finite(lattice_, F_.rows());
+    RestVolumes rest;
+    if (eager) rest = measure_rest(V, threads, where);
     // Nothing below throws: the Deformer's state is replaced from here on.
     V_.resize(nv, 3);
     parallel_range(nv, threads, [&](Index b, Index e) { V_.middleRows(b, e - b) = V.middleRows(b, e - b); });
-    rest_volume_ = rest_volume;
-    rest_part_volumes_ = std::move(part_rest);
+    rest_volumes_.reset(std::move(rest), eager);
     {
       std::lock_guard<std::mutex> lock(face_matrix_mutex_);
       face_matrix_.reset();  // built from the old embedding
@@ -652,12 +673,11 @@ class Deformer {
   VertexRings rings_;  ///< of F_ relabelled by rank_, for an open mesh (empty for a closed one)
   PaddedFans fans_;    ///< of F_ relabelled by rank_, for a closed mesh (empty for an open one)
   Vector3d origin_;
-  double rest_volume_ = 0;
+  LazyRestVolumes rest_volumes_;     ///< of V_ (rest_volumes())
   bool has_parts_ = false;
   MeshParts parts_;                  ///< count 1 and no labels without parts
   std::vector<Index> part_start_;    ///< K + 1: each part's vertices in processing order
   std::vector<Index> face_start_;    ///< K + 1: each part's faces in Fs_ (fixed: set_face_order)
-  VectorXd rest_part_volumes_;       ///< K, with parts
   mutable std::mutex face_matrix_mutex_;
   mutable std::unique_ptr<CsrMatrix> face_matrix_;
 };
@@ -697,7 +717,11 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
   }
   if (opt.preserve_volume && !opt.allow_open) require_closed(edges_, "deform(preserve_volume=True)");
   plan.measure = is_closed() || opt.allow_open;
-  plan.target = std::isnan(opt.target_volume) ? rest_volume_ : opt.target_volume;
+  // The rest volume is the default target of a volume-preserving frame only: other
+  // frames do not sum it (frame/rest_volume.h).
+  plan.target = !std::isnan(opt.target_volume) ? opt.target_volume
+                : opt.preserve_volume && !has_parts_ ? rest_volume(true)
+                                                     : 0.0;
   VPFFD_CHECK(std::isfinite(plan.target), "deform: target_volume is ", plan.target, "; expected a finite number");
   if (has_parts_) {
     const int K = parts_.count;
@@ -713,8 +737,10 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
       VPFFD_CHECK(K == 1, "deform: one target_volume for ", K,
                   " parts; give one target volume per part (a sequence of ", K, " numbers)");
       plan.part_targets = VectorXd::Constant(1, opt.target_volume);
+    } else if (opt.preserve_volume) {
+      plan.part_targets = rest_volumes().parts;
     } else {
-      plan.part_targets = rest_part_volumes_;
+      plan.part_targets = VectorXd::Zero(K);  // read by no frame that does not preserve volume
     }
     plan.target = plan.part_targets.sum();
     VPFFD_CHECK(std::isfinite(plan.target), "deform: the target volumes' sum is ", plan.target,

@@ -1,0 +1,110 @@
+#pragma once
+/// @file rest_volume.h
+/// The rest mesh's enclosed volume, summed on first use.
+///
+/// Moving the rest mesh (set_rest_vertices) changes it, but only a volume-preserving
+/// frame aiming at the default target, and whoever asks for the rest volume, read it:
+/// plain frames, frames with targets of their own and the moves themselves do not. Its
+/// face pass was ~13 % of a CPU move (bench/results/move_ab_vm.md) and about half of a
+/// Vulkan move's host share (bench/results/vulkan_move_host_vm.md), so both backends
+/// sum it when first read (after a move: from the rest vertices they keep) and then
+/// keep it. The same function, faces and threads as an eager sum: the same bits.
+///
+/// What an eager sum also did was refuse a rest mesh whose volume overflows double
+/// precision, when it was set. That refusal stays where it was, by a bound: a vertex
+/// the lattice takes lies within 1000 box extents of the box along every axis without
+/// periodicity (lattice/embed.h), so with R the largest distance of such a point from
+/// the box centre every term of the sum, (p0 - o) . ((p1 - o) x (p2 - o)), has
+/// |term| <= |p0 - o| |p1 - o| |p2 - o| <= R^3, every product inside it <= R^3, and
+/// F terms sum to at most F R^3 (times 1 + F u for the rounding, < 2). Where F R^3 is
+/// finite and below 1e300 no sum can overflow, and the volume waits for its first use;
+/// otherwise (huge boxes, and periodic axes, along which positions have no bound) it
+/// is summed, and checked, at once.
+
+#include <cmath>
+#include <mutex>
+#include <vector>
+
+#include "vpffd/core/check.h"
+#include "vpffd/lattice/lattice.h"
+#include "vpffd/mesh/volume.h"
+#include "vpffd/volume/part_coefficients.h"
+
+namespace vpffd {
+
+/// A rest mesh's enclosed volume (the cone volume from the origin for an open one)
+/// and, with parts, each part's.
+struct RestVolumes {
+  double total = 0;
+  VectorXd parts;  ///< K with parts (their sum is `total`), else empty
+};
+
+/// Whether no F faces with vertices the lattice takes can have a sum of cone volumes
+/// from the box centre past double range (see the file comment).
+inline bool rest_volume_stays_finite(const Lattice& L, Index n_faces) {
+  if (L.any_periodic()) return false;
+  double r2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double reach = 1001.0 * (L.box_max[a] - L.box_min[a]);  // 1000 extents past the box, and half the box
+    r2 += reach * reach;
+  }
+  const double r = std::sqrt(r2);
+  const double bound = double(n_faces) * r * r * r;
+  return std::isfinite(bound) && bound <= 1e300;
+}
+
+/// The volumes of rest vertices V: with `part_faces` (the faces grouped by part,
+/// part k's rows [face_start[k], face_start[k+1])) each part's and their sum, else
+/// signed_volume over F.
+/// @throws InvalidInputError naming `where` when the volume overflows double precision
+inline RestVolumes measure_rest_volumes(const Eigen::Ref<const RowMatrixX3d>& V, const RowMatrixX3i& F,
+                                        const RowMatrixX3i* part_faces, const std::vector<Index>& face_start,
+                                        const Vector3d& origin, int threads, const char* where) {
+  RestVolumes r;
+  if (part_faces) {
+    r.parts = part_volumes(V, *part_faces, face_start, origin, threads);
+    r.total = r.parts.sum();
+  } else {
+    r.total = signed_volume(V, F, origin, threads);
+  }
+  // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
+  // and every volume a frame reports or aims at would be inf or NaN.
+  VPFFD_CHECK(std::isfinite(r.total), where, ": the mesh's enclosed volume overflows double precision (", r.total,
+              "; coordinates up to ", V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
+  return r;
+}
+
+/// RestVolumes summed on first use and kept until the rest mesh moves. Reads may
+/// come from several threads (frames and queries of one deformer); a move, which
+/// replaces what they read, may not run beside them (as for everything else a
+/// deformer keeps).
+class LazyRestVolumes {
+ public:
+  /// The volumes, summed by measure() if not known yet.
+  template <class Measure>
+  const RestVolumes& get(Measure&& measure) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!known_) {
+      value_ = measure();
+      known_ = true;
+    }
+    return value_;
+  }
+  /// Known volumes (summed eagerly), or none: the next get() sums them.
+  void reset(RestVolumes value, bool known) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    value_ = std::move(value);
+    known_ = known;
+  }
+  bool known() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return known_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  mutable bool known_ = false;
+  mutable RestVolumes value_;
+};
+
+}  // namespace vpffd
