@@ -331,14 +331,24 @@ TEST(MovingRest, RestVolumeWaitsForItsFirstUseAndIsTheEagerSum) {
 }
 
 TEST(MovingRest, RestVolumeBoundSumsAtOnceWhereItMightOverflow) {
-  Lattice L = lattice_around(icosphere(1).V, {4, 4, 4}, 3, 0.1);
-  EXPECT_TRUE(rest_volume_stays_finite(L, 1000000));
+  const TriMesh m = icosphere(2);
+  Lattice L = lattice_around(m.V, {4, 4, 4}, 3, 0.1);
+  EXPECT_TRUE(rest_volume_stays_finite(L, 1000000, m.V));
   // 1e97-unit boxes: R ~ 1.7e100, R^3 ~ 5e300 per face.
   for (int a = 0; a < 3; ++a) L.box_max[a] = L.box_min[a] + 1e97;
-  EXPECT_FALSE(rest_volume_stays_finite(L, 1));
-  const TriMesh m = icosphere(2);
-  Lattice Lp = lattice_around(m.V, {6, 6, 6}, 3, 0.4);
-  Lattice periodic = make_lattice(Lp.box_min, Lp.box_max, {6, 6, 6}, {3, 3, 3}, {Seam::Shift, Seam::None, Seam::None});
-  EXPECT_FALSE(rest_volume_stays_finite(periodic, 1)) << "positions along a periodic axis have no bound";
-  EXPECT_TRUE(Deformer(m.V, m.F, periodic).rest_volume_known());
+  EXPECT_FALSE(rest_volume_stays_finite(L, 1, m.V));
+  // Along a periodic axis the reach is the vertices' own: any distance is taken there.
+  const Lattice Lp = lattice_around(m.V, {6, 6, 6}, 3, 0.4);
+  const Lattice periodic =
+      make_lattice(Lp.box_min, Lp.box_max, {6, 6, 6}, {3, 3, 3}, {Seam::Shift, Seam::None, Seam::None});
+  EXPECT_FALSE(Deformer(m.V, m.F, periodic).rest_volume_known()) << "a mesh in the box waits";
+  RowMatrixX3d far = m.V;
+  far.col(0).array() += 1e101;  // R^3 ~ 1e303: summed (and kept: each term is finite) at once
+  EXPECT_FALSE(rest_volume_stays_finite(periodic, m.F.rows(), far));
+  Deformer D(far, m.F, periodic);
+  EXPECT_TRUE(D.rest_volume_known());
+  EXPECT_TRUE(std::isfinite(D.rest_volume()));
+  D.set_rest_vertices(m.V);
+  EXPECT_FALSE(D.rest_volume_known());
+  EXPECT_EQ(D.rest_volume(), Deformer(m.V, m.F, periodic).rest_volume());
 }

@@ -119,8 +119,18 @@ def test_volumes_near_double_range_are_summed_when_they_might_overflow(radius, w
     assert abs(d.rest_volume / radius**3 - unit.rest_volume) <= 1e-13 * unit.rest_volume
 
 
-def test_periodic_lattices_sum_at_once():
+def test_periodic_axes_bound_by_the_vertices_own_reach():
     mesh, _, _ = _scene()
     lat = vpffd.Lattice.around(mesh, shape=(8, 6, 6), padding=0.3, periodic="x")
+    P = vpffd.twist(lat.control_points, 1.0)
     d = vpffd.Deformer(mesh, lat, backend="serial")
-    assert d._core.rest_volume_known  # along a periodic axis positions have no bound
+    assert not d._core.rest_volume_known
+    X = _moved(mesh, 1) + [3.0 * (lat.box_max[0] - lat.box_min[0]), 0, 0]  # whole extents along the periodic axis
+    d.set_rest_vertices(X)
+    r = d.deform(P, preserve_volume=False)
+    assert not d._core.rest_volume_known
+    assert r.rest_volume == vpffd.Deformer(vpffd.Mesh(X, mesh.faces), lat, backend="serial").rest_volume
+    # Along a periodic axis any distance is taken; 1e101 away the bound is past 1e300: summed at once.
+    far = mesh.vertices + [1e101, 0, 0]
+    d.set_rest_vertices(far)
+    assert d._core.rest_volume_known and np.isfinite(d.rest_volume)

@@ -245,7 +245,7 @@ void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   // The rest volumes wait for their first use, as the CPU Deformer's (frame/rest_volume.h):
   // a plain frame does not read them. Where they might overflow they are summed, and
   // refused, now.
-  const bool eager = !rest_volume_stays_finite(cpu->lattice(), cpu->n_faces());
+  const bool eager = !rest_volume_stays_finite(cpu->lattice(), cpu->n_faces(), X);
   RestVolumes vols;
   if (eager) {
     try {

@@ -356,7 +356,7 @@ class Deformer {
     }
     // The rest volumes wait for their first use (frame/rest_volume.h), unless they
     // might overflow: then they are summed, and refused, here.
-    const bool eager = !rest_volume_stays_finite(lattice_, F_.rows());
+    const bool eager = !rest_volume_stays_finite(lattice_, F_.rows(), V, threads);
     RestVolumes rest;
     if (eager) rest = measure_rest(V, threads, where);
     // Nothing below throws: the Deformer's state is replaced from here on.

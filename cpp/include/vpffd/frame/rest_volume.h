@@ -18,14 +18,18 @@
 /// |term| <= |p0 - o| |p1 - o| |p2 - o| <= R^3, every product inside it <= R^3, and
 /// F terms sum to at most F R^3 (times 1 + F u for the rounding, < 2). Where F R^3 is
 /// finite and below 1e300 no sum can overflow, and the volume waits for its first use;
-/// otherwise (huge boxes, and periodic axes, along which positions have no bound) it
-/// is summed, and checked, at once.
+/// otherwise (huge boxes, or meshes far along a periodic axis) it is summed, and
+/// checked, at once. Along a periodic axis a position may be any distance away (it is
+/// wrapped into the box): there the reach is the vertices' own, one pass over that
+/// coordinate (a fraction of a face pass, which reads three rows per face at random).
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 #include <vector>
 
 #include "vpffd/core/check.h"
+#include "vpffd/core/parallel.h"
 #include "vpffd/lattice/lattice.h"
 #include "vpffd/mesh/volume.h"
 #include "vpffd/volume/part_coefficients.h"
@@ -40,12 +44,25 @@ struct RestVolumes {
 };
 
 /// Whether no F faces with vertices the lattice takes can have a sum of cone volumes
-/// from the box centre past double range (see the file comment).
-inline bool rest_volume_stays_finite(const Lattice& L, Index n_faces) {
-  if (L.any_periodic()) return false;
+/// from the box centre past double range (see the file comment). V (vertices the
+/// lattice took: finite) is read only along periodic axes.
+inline bool rest_volume_stays_finite(const Lattice& L, Index n_faces, const Eigen::Ref<const RowMatrixX3d>& V,
+                                     int threads = 0) {
   double r2 = 0;
   for (int a = 0; a < 3; ++a) {
-    const double reach = 1001.0 * (L.box_max[a] - L.box_min[a]);  // 1000 extents past the box, and half the box
+    double reach = 1001.0 * (L.box_max[a] - L.box_min[a]);  // 1000 extents past the box, and half the box
+    if (L.periodic(a)) {
+      const double c = 0.5 * (L.box_min[a] + L.box_max[a]);
+      const int chunks = chunk_count(V.rows());
+      std::vector<double> far(chunks, 0.0);
+      parallel_chunks(V.rows(), chunks, threads, [&](int k, Index b, Index e) {
+        double m = 0;
+        for (Index v = b; v < e; ++v) m = std::max(m, std::abs(V(v, a) - c));
+        far[k] = m;
+      });
+      reach = 0;
+      for (double m : far) reach = std::max(reach, m);
+    }
     r2 += reach * reach;
   }
   const double r = std::sqrt(r2);
