@@ -21,8 +21,10 @@ def is_real(dtype) -> bool:
     return dtype.kind in "fiu"
 
 
-def points(a, name: str, rows: int | None = None, allow_empty: bool = False) -> np.ndarray:
-    """(n, 3) float64 C-contiguous copy of ``a``; raises TypeError/ValueError."""
+def points(a, name: str, rows: int | None = None, allow_empty: bool = False, finite: bool = True) -> np.ndarray:
+    """(n, 3) float64 C-contiguous copy of ``a``; raises TypeError/ValueError. With
+    ``finite=False`` NaN and infinities pass (for a caller whose core refuses them in a
+    pass it makes anyway, naming the vertex)."""
     if a is None:
         raise TypeError(f"{name}: expected an (n, 3) array of numbers, got None")
     arr = np.asarray(a)
@@ -35,7 +37,7 @@ def points(a, name: str, rows: int | None = None, allow_empty: bool = False) -> 
     if arr.shape[0] == 0 and not allow_empty:
         raise InvalidInputError(f"{name}: is empty")
     out = np.array(arr, dtype=np.float64, order="C", copy=True)
-    if not np.isfinite(out).all():
+    if finite and not np.isfinite(out).all():
         bad = int(np.argwhere(~np.isfinite(out))[0][0])
         raise InvalidInputError(f"{name}: row {bad} contains NaN or Inf")
     return out

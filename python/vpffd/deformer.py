@@ -230,7 +230,9 @@ class Deformer:
             with ``outside="extrapolate"``): the message says how many and the first.
             The Deformer is unchanged then.
         """
-        X = _arrays.points(vertices, "set_rest_vertices: vertices", rows=self.mesh.n_vertices)
+        # NaN and infinities are refused by the core's embedding, which reads every
+        # coordinate anyway ("vertex i has a non-finite coordinate").
+        X = _arrays.points(vertices, "set_rest_vertices: vertices", rows=self.mesh.n_vertices, finite=False)
         holder = self._holder
         known = holder.rest_volume(True) if holder.rest_volume_known else None
         if self._vk is not None:

@@ -292,12 +292,33 @@ TEST(MovingRest, BadInputLeavesTheDeformerUnchanged) {
   }
   EXPECT_EQ(D.rest_volume(), V0);
   EXPECT_EQ(D.rest_vertices(), m.V);
-  RowMatrixX3d nan = m.V;
-  nan(4, 1) = NAN;
-  EXPECT_THROW(D.set_rest_vertices(nan), InvalidInputError);
+  // Non-finite coordinates are refused by the embedding's own pass and then named as
+  // such (in the extrapolating Deformer too, where no box test would catch them).
+  Deformer E(m.V, m.F, L, OutsidePolicy::Extrapolate);
+  for (const double bad : {double(NAN), double(INFINITY), -double(INFINITY)})
+    for (Deformer* d : {&D, &E}) {
+      RowMatrixX3d Y = m.V;
+      Y(4, 1) = bad;
+      try {
+        d->set_rest_vertices(Y);
+        ADD_FAILURE() << "a non-finite coordinate must be refused";
+      } catch (const InvalidInputError& e) {
+        const std::string msg = e.what();
+        EXPECT_NE(msg.find("set_rest_vertices: vertex 4 has a non-finite coordinate"), std::string::npos) << msg;
+      }
+      EXPECT_EQ(d->rest_vertices(), m.V);
+    }
+  RowMatrixX3d far = m.V;
+  far(7, 2) = 1e300;  // finite, but past the 1000 box extents the embedding takes
+  try {
+    E.set_rest_vertices(far);
+    ADD_FAILURE() << "a vertex 1e300 away must be refused";
+  } catch (const InvalidInputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("7 is not finite, or too far from the lattice"), std::string::npos) << msg;
+  }
   EXPECT_THROW(D.set_rest_vertices(m.V.topRows(5)), InvalidInputError);
   // With extrapolation a vertex outside the box is fine.
-  Deformer E(m.V, m.F, L, OutsidePolicy::Extrapolate);
   X = m.V;
   X.col(0).array() += 0.3;
   E.set_rest_vertices(X);

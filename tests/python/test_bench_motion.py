@@ -24,3 +24,14 @@ def test_a_cpu_move_is_all_host(bench_motion, preserve):
     assert host > 0 and frame > 0
     assert fps == pytest.approx(1e3 / (move + frame))
     assert np.isfinite([move, frame, fps]).all()
+
+
+def test_bench_move_prints_one_row_per_thread_count(load_bench, capsys, monkeypatch):
+    bench_move = load_bench("bench_move")
+    monkeypatch.setattr("sys.argv", ["bench_move.py", "--level", "2", "--moves", "2"])
+    bench_move.main()
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ") and line[2].isdigit()]
+    assert len(rows) == (2 if vpffd._core.has_openmp() else 1)
+    for row in rows:
+        py, core = (float(x) for x in row.strip("| ").split("|")[1:3])
+        assert py > 0 and core > 0

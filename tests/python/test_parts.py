@@ -222,8 +222,12 @@ def test_set_rest_vertices_bad_input():
         d.set_rest_vertices(X[:-1])
     bad = mesh.vertices.copy()
     bad[6, 2] = np.nan
-    with pytest.raises(InvalidInputError, match="row 6"):
+    with pytest.raises(InvalidInputError, match=r"vertex 6 has a non-finite coordinate \(.*nan\)"):
         d.set_rest_vertices(bad)
+    bad[6, 2] = -np.inf
+    with pytest.raises(InvalidInputError, match=r"vertex 6 has a non-finite coordinate \(.*-inf\)"):
+        d.set_rest_vertices(bad)
+    assert d.rest_volume == V0 and np.array_equal(d.rest_vertices, mesh.vertices)  # still unchanged
     e = vpffd.Deformer(mesh, lat, backend="serial", outside="extrapolate")
     e.set_rest_vertices(mesh.vertices + [0.3, 0, 0])  # outside the box, extrapolated
     # A translation keeps the volume: both sums round by ~F u |term| (320 faces, terms < 1).

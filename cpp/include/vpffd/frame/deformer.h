@@ -86,13 +86,18 @@ class Deformer {
   void set_rest_vertices(const Eigen::Ref<const RowMatrixX3d>& X, int threads = 0) {
     VPFFD_CHECK(X.rows() == n_vertices(), "set_rest_vertices: ", X.rows(), " vertices, the mesh has ", n_vertices(),
                 " (the faces stay; give every vertex a new position)");
-    // allFinite() is one vectorised pass; the loop only finds the culprit.
-    if (!X.allFinite())
-      for (Index v = 0; v < X.rows(); ++v)
-        VPFFD_CHECK(std::isfinite(X(v, 0)) && std::isfinite(X(v, 1)) && std::isfinite(X(v, 2)),
-                    "set_rest_vertices: vertex ", v, " has a non-finite coordinate (", X(v, 0), ", ", X(v, 1), ", ",
-                    X(v, 2), ")");
-    embed_rest(X, threads, "set_rest_vertices");
+    try {
+      embed_rest(X, threads, "set_rest_vertices");
+    } catch (const InvalidInputError&) {
+      // The embedding refuses non-finite coordinates (with points too far away) in the
+      // pass it makes anyway; only a refused move looks for them, to name them as such.
+      if (!X.allFinite())
+        for (Index v = 0; v < X.rows(); ++v)
+          VPFFD_CHECK(std::isfinite(X(v, 0)) && std::isfinite(X(v, 1)) && std::isfinite(X(v, 2)),
+                      "set_rest_vertices: vertex ", v, " has a non-finite coordinate (", X(v, 0), ", ", X(v, 1),
+                      ", ", X(v, 2), ")");
+      throw;
+    }
   }
 
   Deformer(const Deformer&) = delete;
