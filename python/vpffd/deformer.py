@@ -26,8 +26,9 @@ BackendUnavailableError = _core.BackendUnavailableError
 # rows, weighted rows, coefficients and offsets, and one coefficient buffer per thread:
 # about 40 doubles. And per vertex, the Deformer's own data (bytes_per_vertex, about 160
 # bytes) plus a frame's positions in processing and caller order and the result (72).
-# A Deformer whose rest mesh has moved keeps 40 bytes more (the next move's embedding
-# and cells), which this check at construction does not count.
+# A Deformer whose rest mesh has moved keeps 40-44 bytes more (the next move's embedding
+# and cells; the order its vertex fans are in until a frame relabels them), which this
+# check at construction does not count.
 _FRAME_BYTES_PER_CONTROL_POINT = 320
 _BYTES_PER_VERTEX = 256
 # With K parts an axis step holds K coefficient rows of N doubles, and the solve copies

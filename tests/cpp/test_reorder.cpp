@@ -352,3 +352,35 @@ TEST(MovingRest, RestVolumeBoundSumsAtOnceWhereItMightOverflow) {
   EXPECT_FALSE(D.rest_volume_known());
   EXPECT_EQ(D.rest_volume(), Deformer(m.V, m.F, periodic).rest_volume());
 }
+
+TEST(MovingRest, FansAndRingsRelabelledOnceAfterMovesInARow) {
+  // The fans (closed) and rings (open) wait for the first frame that reads them: after
+  // several moves with only plain frames between them, that frame relabels them from the
+  // order they were left in; every result is still a fresh Deformer's, bit for bit.
+  TriMesh open = icosphere(3);
+  open.F.conservativeResize(open.F.rows() - 7, 3);
+  const TriMesh closed = icosphere(3);
+  for (const TriMesh* m : std::initializer_list<const TriMesh*>{&closed, &open}) {
+    const Lattice L = lattice_around(m->V, {6, 5, 6}, 3, 0.4);
+    const RowMatrixX3d P = squashed(L, 0.8);
+    Deformer D(m->V, m->F, L, OutsidePolicy::Error, 2);
+    CorrectionOptions plain;
+    plain.preserve_volume = false;
+    plain.allow_open = true;
+    RowMatrixX3d X;
+    for (int round = 0; round < 2; ++round) {
+      for (int step = 1; step <= 3; ++step) {
+        X = moved(m->V, Vector3d(0.06, -0.05, 0.04) * (step + 3 * round), 0.005 * step);
+        D.set_rest_vertices(X, 2);
+        const Deformer fresh(X, m->F, L, OutsidePolicy::Error, 1);
+        EXPECT_EQ(D.deform(P, plain).vertices, fresh.deform(P, plain).vertices);
+      }
+      expect_same_deformer(D, Deformer(X, m->F, L, OutsidePolicy::Error, 1), X, P);
+    }
+    // Back to where it started, after a move away that no frame read: the relabelling
+    // finds the adjacency already in the order it needs.
+    D.set_rest_vertices(moved(m->V, Vector3d(0.1, 0.1, -0.1), 0.0), 1);
+    D.set_rest_vertices(X, 1);
+    expect_same_deformer(D, Deformer(X, m->F, L, OutsidePolicy::Error, 1), X, P);
+  }
+}

@@ -197,7 +197,8 @@ class Deformer {
   /// mesh, ~28-36: rows of 6-7 and tails) or rings (open, ~52), the cell runs, the
   /// rest vertices and, once built, the vertex-face lists (about 190 bytes for a
   /// closed mesh, F = 2V, with the lists; 28 less without); 40 more once the rest
-  /// mesh has moved (the next move's buffers: embedding 36, cells 4).
+  /// mesh has moved (the next move's buffers: embedding 36, cells 4), and 4 while the
+  /// adjacency waits to be relabelled after moves (the order it is in).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fp_.size()) * per_int;
@@ -210,7 +211,11 @@ class Deformer {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       if (adjacency_) bytes += double(adjacency_->indptr.size() + adjacency_->faces.size()) * per_int;
     }
-    bytes += double(rings_.indptr.size() + rings_.pairs.size()) * per_int + double(fans_.bytes());
+    {
+      std::lock_guard<std::mutex> lock(adjacency_sync_mutex_);
+      bytes += double(rings_.indptr.size() + rings_.pairs.size() + adjacency_order_.size()) * per_int +
+               double(fans_.bytes());
+    }
     bytes += double(spare_cells_.size()) * per_int;
     bytes += double(n_vertices() + spare_embedding_.size()) * Embedding::bytes_per_point;
     bytes += double(runs_.start.size()) * sizeof(Index) + double(3 * runs_.size()) * per_int;
@@ -404,19 +409,6 @@ class Deformer {
       return;
     }
     std::vector<std::int32_t> rank = inverse_order(order, threads);
-    // A move carries the faces and fans of the previous order over (reorder.h): old
-    // position -> new position, and new position -> old position.
-    std::vector<std::int32_t> old_to_new, new_to_old;
-    if (moving) {
-      old_to_new.resize(nv);
-      new_to_old.resize(nv);
-      parallel_range(nv, threads, [&](Index b, Index e) {
-        for (Index i = b; i < e; ++i) {
-          old_to_new[i] = rank[order_[i]];
-          new_to_old[i] = rank_[order[i]];
-        }
-      });
-    }
     runs_ = cell_runs(embedding_, threads);
     // The faces keep the mesh's order (each part's together, set in the constructor),
     // renumbered by processing position when first needed (processing_faces). Sorting
@@ -434,7 +426,8 @@ class Deformer {
     // the terms of a weight come in an order no move changes), and relabelled into
     // each processing order. The fans' rows are stored in the first processing
     // order's runs, each run's vertices by valence (weight_order_), and keep their
-    // vertices through every move: a move relabels the entries in place.
+    // vertices through every move: their entries are relabelled in place, on the
+    // first use after a move (sync_adjacency: plain frames do not read them).
     if (!moving) {
       if (is_closed()) {
         const VertexRings rings = vertex_rings(F_, nv);
@@ -449,16 +442,15 @@ class Deformer {
       } else {
         rings_ = permute_rings(vertex_rings(F_, nv), order, rank, threads);
       }
-    } else if (is_closed()) {
-      relabel_fans(fans_, old_to_new, threads);
-      parallel_range(nv, threads, [&](Index b, Index e) {
-        for (Index j = b; j < e; ++j) weight_order_[j] = old_to_new[weight_order_[j]];
-      });
-    } else {
-      rings_ = permute_rings(rings_, new_to_old, old_to_new, threads);
     }
     order_.swap(order);
     rank_.swap(rank);
+    if (moving) {
+      // `order` now holds the previous order: the fans' and rings' labels are of it,
+      // unless they were of an earlier one still (moves without a frame that read them).
+      std::lock_guard<std::mutex> lock(adjacency_sync_mutex_);
+      if (adjacency_order_.empty()) adjacency_order_.swap(order);
+    }
     set_seam_shifts(V);
     part_start_.swap(part_start);
     {
@@ -631,12 +623,44 @@ class Deformer {
                   "deform: method='csr' needs a closed mesh; use method='traversal' with allow_open");
   }
 
+  /// Brings the fans (closed mesh: their entries and weight_order_) or the rings (open
+  /// mesh) to the current processing order, if a move left them in an older one
+  /// (adjacency_order_): what the moves would each have done, at once (entries are
+  /// only relabelled, so the labels are the same whichever moves lie between).
+  void sync_adjacency(int threads) const {
+    std::lock_guard<std::mutex> lock(adjacency_sync_mutex_);
+    if (adjacency_order_.empty()) return;
+    const Index nv = n_vertices();
+    if (adjacency_order_ != order_) {
+      // old position -> new position, and (rings) new position -> old position.
+      std::vector<std::int32_t> old_to_new(nv);
+      parallel_range(nv, threads, [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i) old_to_new[i] = rank_[adjacency_order_[i]];
+      });
+      if (is_closed()) {
+        relabel_fans(fans_, old_to_new, threads);
+        parallel_range(nv, threads, [&](Index b, Index e) {
+          for (Index j = b; j < e; ++j) weight_order_[j] = old_to_new[weight_order_[j]];
+        });
+      } else {
+        const std::vector<std::int32_t> old_rank = inverse_order(adjacency_order_, threads);
+        std::vector<std::int32_t> new_to_old(nv);
+        parallel_range(nv, threads, [&](Index b, Index e) {
+          for (Index i = b; i < e; ++i) new_to_old[i] = old_rank[order_[i]];
+        });
+        rings_ = permute_rings(rings_, new_to_old, old_to_new, threads);
+      }
+    }
+    adjacency_order_.clear();
+  }
+
   /// `weights` (#V, may be null) receives the traversal's per-vertex weights.
   AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads,
                                 double* weights = nullptr) const {
     if (!is_closed()) check_method(method);
     if (method == CoefficientMethod::Csr)
       return coefficients_csr(face_matrix(threads), X, processing_faces(), axis, origin_, threads);
+    sync_adjacency(threads);
     if (is_closed())
       return coefficients_fans(tables_, embedding_, fans_, X, axis, origin_, threads, weights, &runs_,
                                weight_order_.data());
@@ -662,7 +686,7 @@ class Deformer {
   /// VM, but up to ~1.1x on 1 thread under memory contention, where the separate
   /// weight pass's traffic costs: 8 % fewer instructions, 18 % more last-level
   /// misses, all sequential (cachegrind counts; bench/results/frame_ab_vm.md).
-  std::vector<std::int32_t> weight_order_;
+  mutable std::vector<std::int32_t> weight_order_;
   std::vector<std::int32_t> face_order_;  ///< face processing position -> face (fixed: set_face_order)
   Embedding embedding_;              ///< in processing order
   Embedding spare_embedding_;        ///< set_rest_vertices' buffers for the next embedding
@@ -675,8 +699,13 @@ class Deformer {
   EdgeReport edges_;
   mutable std::mutex adjacency_mutex_;
   mutable std::unique_ptr<VertexFaces> adjacency_;  ///< of Fs_, built on first use
-  VertexRings rings_;  ///< of F_ relabelled by rank_, for an open mesh (empty for a closed one)
-  PaddedFans fans_;    ///< of F_ relabelled by rank_, for a closed mesh (empty for an open one)
+  // The vertex adjacency the weights are summed from, in processing positions of
+  // adjacency_order_ when that is not empty (a move's relabelling waits for the first
+  // read: sync_adjacency), else of order_.
+  mutable VertexRings rings_;  ///< of F_ relabelled, for an open mesh (empty for a closed one)
+  mutable PaddedFans fans_;    ///< of F_ relabelled, for a closed mesh (empty for an open one)
+  mutable std::vector<std::int32_t> adjacency_order_;
+  mutable std::mutex adjacency_sync_mutex_;
   Vector3d origin_;
   LazyRestVolumes rest_volumes_;     ///< of V_ (rest_volumes())
   bool has_parts_ = false;
@@ -870,6 +899,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       AxisStep info;
       info.axis = a;
       const bool last = step == k - 1;
+      if (step == 0) sync_adjacency(threads);
       const PartCoefficients co = part_coefficients_rings(tables_, embedding_, fans_, X, a, origin_, part_start_,
                                                           threads, &runs_, weight_order_.data(), w.get());
       lap(tm.coefficients);
