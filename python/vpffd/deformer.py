@@ -209,14 +209,13 @@ class Deformer:
         """Moves the rest mesh: the next frame deforms ``vertices`` (V, 3) (same faces)
         exactly as a Deformer built on that mesh would: new embedding, processing
         order and rest volume(s), so an object can travel through the lattice frame
-        by frame. On the CPU it costs each vertex's cell, a counting sort by cell, the
-        embedding (straight into the sorted order) and relabelling the vertex fans in
-        place (nothing of that when no vertex changed its cell; the faces are
-        renumbered only when a frame needs them, which a volume-preserving frame of a
-        closed mesh does not): 2-3 plain FFD frames, 0.5-0.8 of a volume-preserving
-        one on one thread. The new rest volume is summed when first needed: by a
-        volume-preserving frame (its target), ``rest_volume``, or a result's
-        ``rest_volume`` when read; a plain frame does not sum it. On "vulkan" only
+        by frame. On the CPU it costs each vertex's cell, a counting sort by cell and
+        the embedding (straight into the sorted order): 1.2-2.7 plain FFD frames
+        (``bench/results/motion_vm.md``). What only a volume-preserving frame needs
+        waits for the first such frame: the vertex fans relabelled into the new order
+        (once, for any number of moves before it) and the new rest volume, its target
+        (``rest_volume`` and a result's ``rest_volume`` sum it when read); a plain
+        frame needs neither, nor the faces renumbered. On "vulkan" only
         the vertices go to the device, which embeds them and sorts them by lattice
         cell itself, first thing in the next frame's submission (the rest volume is
         summed on the host in float64); the result equals a Vulkan Deformer built on

@@ -347,7 +347,9 @@ class Deformer {
   }
 
   /// Everything that depends on the rest positions, from V: embedding, processing
-  /// orders (by part, then by cell), renumbered faces, rings, rest volumes. Computed
+  /// orders (by part, then by cell), cell runs, seam shifts. What only some frames
+  /// read waits for them: the renumbered faces (processing_faces), the fans or rings
+  /// in the new order (sync_adjacency) and the rest volumes (rest_volumes). Computed
   /// aside and then swapped in, so a throw leaves the Deformer as it was.
   void embed_rest(const Eigen::Ref<const RowMatrixX3d>& V, int threads, const char* where) {
     const Index nv = V.rows();
