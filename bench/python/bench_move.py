@@ -4,9 +4,12 @@
 move alone, back and forth between two positions 2 % of the mesh's size apart in a
 10^3 cubic lattice (vertices change cell every call: the processing order changes),
 on 1 and 2 threads. A move no longer sums the rest volume (a frame that needs it does:
-cpp/include/vpffd/frame/rest_volume.h), so it is the move alone.
+cpp/include/vpffd/frame/rest_volume.h), so it is the move alone. With
+``--backend vulkan`` it is the host's part of a move (staging the positions with their
+checks): moves in a row with no frame between them leave the device work to the next
+frame, which never comes here.
 
-    .venv/bin/python bench/python/bench_move.py [--moves 15] [--mesh PATH] [--level 7]
+    .venv/bin/python bench/python/bench_move.py [--moves 15] [--mesh PATH] [--level 7] [--backend cpu|vulkan]
 
 Without --mesh: an icosphere of the given level (7: 163,842 vertices). Prints the
 median milliseconds per move and the load average. To compare two builds, run it
@@ -35,6 +38,7 @@ def main():
     ap.add_argument("--moves", type=int, default=15)
     ap.add_argument("--mesh", help="a mesh file (default: an icosphere)")
     ap.add_argument("--level", type=int, default=7, help="icosphere subdivision level without --mesh")
+    ap.add_argument("--backend", choices=("cpu", "vulkan"), default="cpu")
     a = ap.parse_args()
     mesh = vpffd.io.load_mesh(a.mesh) if a.mesh else vpffd.shapes.icosphere(a.level)
     lat = vpffd.Lattice.around(mesh, shape=(10, 10, 10), degree=3, padding=0.1)
@@ -44,8 +48,15 @@ def main():
     print(f"{mesh.n_vertices:,} vertices; load average at start {os.getloadavg()[0]:.2f}")
     print("| threads | set_rest_vertices (ms) | core move alone (ms) |")
     print("|---:|---:|---:|")
+    if a.backend == "vulkan":
+        d = vpffd.Deformer(mesh, lat, backend="vulkan")
+        d.set_rest_vertices(X[1])
+        d.deform()  # the construction's device work done
+        py = median_ms(lambda i: d.set_rest_vertices(X[i % 2]), a.moves)
+        core = median_ms(lambda i: d._vk.set_rest_vertices(X[i % 2]), a.moves)
+        print(f"| {vpffd._core.max_threads()} (host) | {py:.2f} | {core:.2f} |")
     backend = "openmp" if vpffd._core.has_openmp() else "serial"
-    for threads in (1, 2) if backend == "openmp" else (1,):
+    for threads in ((1, 2) if backend == "openmp" else (1,)) if a.backend == "cpu" else ():
         d = vpffd.Deformer(mesh, lat, backend=backend, threads=threads)
         py = median_ms(lambda i: d.set_rest_vertices(X[i % 2]), a.moves)
         core = median_ms(lambda i: d._core.set_rest_vertices(X[i % 2], threads), a.moves)

@@ -144,6 +144,7 @@ struct VulkanDeformer::Impl {
   // never change; a move re-embeds and re-sorts the slots on the device.
   std::vector<std::int32_t> slot;
   RowMatrixX3d rest;         // input order, world units
+  RowMatrixX3d spare_rest;   // stage_rest's copy of the next rest positions (swapped in on success)
   // The rest volume (cone volume from the origin, as Deformer::rest_volume(true)) and,
   // with parts, each part's (the default targets): summed from `rest` on first use.
   LazyRestVolumes rest_vols;

@@ -162,6 +162,10 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   }
   const double inv_scale = 1.0 / scale;  // a power of two: x * inv_scale == x / scale
   std::atomic<bool> bad{false}, far{false};
+  // The host's copy of the positions is written in the same pass (X read once), into
+  // spare_rest: embed_rest swaps it in once nothing can throw.
+  spare_rest.resize(nv, 3);
+  double* const keep = spare_rest.data();
   auto stage = [&](auto ff_c) {
     constexpr bool FF = decltype(ff_c)::value;
     double* const y64 = static_cast<double*>(up_rest.mapped());
@@ -172,6 +176,7 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
       const double u = c.p_lo[j] + (xw - c.box_lo[j]) * c.p_k[j];  // ParameterMap's arithmetic
       in &= (u >= c.u_lo[j]) & (u <= c.u_hi[j]) & (xw >= c.lo[j]) & (xw <= c.hi[j]);
       near &= std::abs(x - c.centre[j]) <= c.far[j];
+      keep[k] = x;
       const double y = (x - c.origin[j]) * inv_scale;
       if constexpr (FF) {
         const float h = static_cast<float>(y);
@@ -257,10 +262,7 @@ void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   }
   embed_pending = true;
   if (!defer) flush_embedding();
-  // In parallel, as the CPU Deformer copies its rest vertices (a stream of 24 bytes a
-  // vertex each way: 1.4-1.9 ms for the dragon on one thread).
-  rest.resize(nv, 3);
-  parallel_range(nv, 0, [&](Index b, Index e) { rest.middleRows(b, e - b) = X.middleRows(b, e - b); });
+  rest.swap(spare_rest);  // the positions stage_rest copied (spare_rest keeps the old buffer)
   rest_vols.reset(std::move(vols), eager);
   normals_ready = false;  // the rest normals are of the old positions
 }
