@@ -129,7 +129,7 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   // 48 bits) and keeps positions in float32: past 2^24 box extents nothing of the place
   // within the box would be left, so such a position is refused (the CPU takes it).
   const double far_extents = std::ldexp(1.0, 24);
-  // In parallel: this is the host's share of a move with the rest volume (the device
+  // In parallel: this is most of the host's share of a move (the device
   // embeds and sorts), and serial it cost several device frames (5.9 ms for the 112,848
   // whales on an H100 machine against a 1.1 ms frame). In the caller's vertex order: X is
   // read and the upload written as streams (embed.comp and rest_normals.comp find a slot's
