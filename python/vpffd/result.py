@@ -137,10 +137,6 @@ class RestVolumeSource:
         self._vertices = None  # None while this is the Deformer's current rest mesh
         self._value = None
 
-    @property
-    def pending(self) -> bool:
-        return self._value is None
-
     def retire(self, vertices, value=None):
         """The Deformer's rest mesh moves on from ``vertices``; ``value`` is their sum if known."""
         if self._value is None:

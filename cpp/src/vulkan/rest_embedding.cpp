@@ -218,9 +218,7 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     stage(std::false_type{});
   if (bad) {
     // The CPU's own checks give the message (first vertex in the caller's order).
-    for (Index v = 0; v < nv; ++v)
-      VPFFD_CHECK(std::isfinite(X(v, 0)) && std::isfinite(X(v, 1)) && std::isfinite(X(v, 2)), where, ": vertex ", v,
-                  " has a non-finite coordinate (", X(v, 0), ", ", X(v, 1), ", ", X(v, 2), ")");
+    require_finite_rows(X, where);
     try {
       embed(L, X, cpu->outside_policy());
     } catch (const InvalidInputError& e) {

@@ -91,11 +91,7 @@ class Deformer {
     } catch (const InvalidInputError&) {
       // The embedding refuses non-finite coordinates (with points too far away) in the
       // pass it makes anyway; only a refused move looks for them, to name them as such.
-      if (!X.allFinite())
-        for (Index v = 0; v < X.rows(); ++v)
-          VPFFD_CHECK(std::isfinite(X(v, 0)) && std::isfinite(X(v, 1)) && std::isfinite(X(v, 2)),
-                      "set_rest_vertices: vertex ", v, " has a non-finite coordinate (", X(v, 0), ", ", X(v, 1),
-                      ", ", X(v, 2), ")");
+      require_finite_rows(X, "set_rest_vertices");
       throw;
     }
   }

@@ -12,6 +12,14 @@
 
 namespace vpffd {
 
+/// @throws InvalidInputError naming the first row of V with a NaN or infinite coordinate.
+inline void require_finite_rows(const Eigen::Ref<const RowMatrixX3d>& V, const char* where) {
+  if (V.allFinite()) return;  // one vectorised pass; the loop only finds the culprit
+  for (Index v = 0; v < V.rows(); ++v)
+    VPFFD_CHECK(std::isfinite(V(v, 0)) && std::isfinite(V(v, 1)) && std::isfinite(V(v, 2)), where, ": vertex ", v,
+                " has a non-finite coordinate (", V(v, 0), ", ", V(v, 1), ", ", V(v, 2), ")");
+}
+
 /// @throws InvalidInputError for an empty mesh, non-finite coordinates or face
 ///         indices out of [0, #V).
 inline void validate_mesh(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
@@ -21,9 +29,7 @@ inline void validate_mesh(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::
   VPFFD_CHECK(V.rows() < (Index(1) << 31), where, ": too many vertices (", V.rows(), ")");
   // Vertex-face lists hold 3 #F entries with 32-bit offsets.
   VPFFD_CHECK(3 * F.rows() < (Index(1) << 31), where, ": too many faces (", F.rows(), "; at most 715,827,882)");
-  for (Index v = 0; v < V.rows(); ++v)
-    VPFFD_CHECK(std::isfinite(V(v, 0)) && std::isfinite(V(v, 1)) && std::isfinite(V(v, 2)), where, ": vertex ", v,
-                " has a non-finite coordinate (", V(v, 0), ", ", V(v, 1), ", ", V(v, 2), ")");
+  require_finite_rows(V, where);
   for (Index f = 0; f < F.rows(); ++f)
     for (int c = 0; c < 3; ++c)
       VPFFD_CHECK(F(f, c) >= 0 && F(f, c) < V.rows(), where, ": face ", f, " refers to vertex ", F(f, c),
