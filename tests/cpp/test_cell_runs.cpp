@@ -229,9 +229,47 @@ TEST(CellRuns, KernelsEqualPerPointKernels) {
         for (size_t q = 0; q + 1 < cuts.size(); ++q)
           detail::scatter_runs<k>(T, E, p.runs, weight, acc_c.data(), cuts[q], cuts[q + 1]);
         EXPECT_LE((acc_a - acc_c).cwiseAbs().maxCoeff(), stol);
+
+        // With the short runs' basis values kept (cache_short_run_basis) every run
+        // kernel gives the same bits: the values are point_basis's, the arithmetic the same.
+        CellRuns kept = p.runs;
+        cache_short_run_basis(T, E, kept, 2);
+        Index n_kept = 0;
+        for (Index r = 0; r < kept.size(); ++r) n_kept += kept.length(r) < kShortRun ? kept.length(r) : 0;
+        ASSERT_GT(n_kept, 0);
+        ASSERT_EQ(kept.basis.size(), size_t(3 * K * n_kept));
+        EXPECT_EQ(kept.bytes() - p.runs.bytes(), (kept.basis_start.size() + 3 * K * n_kept) * 8);
+        for (size_t q = 0; q + 1 < cuts.size(); ++q) {
+          RowMatrixX3d kb(n, 3), kr(n, 3);
+          kb.setConstant(7.0);
+          kr.setConstant(7.0);
+          const Index lo = cuts[q], hi = cuts[q + 1];
+          detail::ffd_runs<k>(T, E, p.runs, Px.data(), Py.data(), Pz.data(), kb.data(), lo, hi, order.data());
+          detail::ffd_runs<k>(T, E, kept, Px.data(), Py.data(), Pz.data(), kr.data(), lo, hi, order.data());
+          ASSERT_EQ(kb, kr);
+          detail::gather_runs<k>(T, E, p.runs, D.data(), kb.data(), 0, lo, hi);
+          detail::gather_runs<k>(T, E, kept, D.data(), kr.data(), 0, lo, hi);
+          ASSERT_EQ(kb, kr);
+          ASSERT_EQ(detail::gather_final_runs<k>(T, E, p.runs, D.data(), kb.data(), 1, w.data(), 0.25, lo, hi),
+                    detail::gather_final_runs<k>(T, E, kept, D.data(), kr.data(), 1, w.data(), 0.25, lo, hi));
+          ASSERT_EQ(kb, kr);
+          VectorXd sa = VectorXd::Zero(N), sk = VectorXd::Zero(N);
+          // Zero weights are skipped by both (a vertex without faces).
+          auto some_zero = [&](Index v) { return v % 5 == 0 ? 0.0 : w[v]; };
+          detail::scatter_runs<k>(T, E, p.runs, some_zero, sa.data(), lo, hi);
+          detail::scatter_runs<k>(T, E, kept, some_zero, sk.data(), lo, hi);
+          ASSERT_EQ(sa, sk);
+        }
       }
     });
   }
+  // Mixed orders take no runs' kernels: nothing is kept.
+  const Lattice mixed = make_lattice(Vector3d(-1, -1, -1), Vector3d(1, 1, 1), {5, 6, 5}, {3, 2, 3});
+  const Points m = random_points(mixed, 500, false, 3);
+  CellRuns kept = m.runs;
+  cache_short_run_basis(basis_tables(mixed), m.E, kept);
+  EXPECT_TRUE(kept.basis.empty());
+  EXPECT_TRUE(kept.basis_start.empty());
 }
 
 // Fans hold each ring pair once as two consecutive entries, and nothing else but

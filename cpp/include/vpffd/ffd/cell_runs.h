@@ -42,8 +42,17 @@ namespace vpffd {
 struct CellRuns {
   std::vector<Index> start;                       ///< R + 1: run r is [start[r], start[r+1])
   std::array<std::vector<std::int32_t>, 3> span;  ///< R per axis: the run's knot spans
+  /// Optional (cache_short_run_basis): the basis values of the points of short runs,
+  /// 3K per point (the K values along u, then v, then w), run after run; run r's
+  /// first point's at 3K * basis_start[r]. Empty: the kernels evaluate them.
+  std::vector<Index> basis_start;  ///< R + 1 where `basis` is filled, else empty
+  std::vector<double> basis;
   Index size() const { return static_cast<Index>(span[0].size()); }
   Index length(Index r) const { return start[r + 1] - start[r]; }
+  size_t bytes() const {
+    return start.size() * sizeof(Index) + 3 * span[0].size() * sizeof(std::int32_t) +
+           basis_start.size() * sizeof(Index) + basis.size() * sizeof(double);
+  }
 };
 
 /// Runs shorter than this take the per-point arithmetic (see the file comment).
@@ -74,9 +83,53 @@ inline CellRuns cell_runs(const Embedding& E, int threads = 1) {
   return R;
 }
 
+/// Fills R.basis (see CellRuns): each point of a short run keeps its K basis values
+/// per axis, which its run's per-point kernels read in every pass of every frame
+/// instead of evaluating them (a frame's FFD, three scatters and three gathers each
+/// spent about half their per-point time on the basis: 2,562-vertex sphere, 10^3
+/// lattice). Long runs keep nothing (the power form needs no basis values), so this
+/// costs 24 K bytes per point of a short run only, fewer than 31 per cell. The values
+/// are point_basis's own, so results are the same bits with or without them. Only
+/// for uniform orders (the runs' kernels); otherwise R.basis is left empty.
+inline void cache_short_run_basis(const BasisTables& T, const Embedding& E, CellRuns& R, int threads = 1) {
+  R.basis_start.clear();
+  R.basis.clear();
+  detail::dispatch_order(T, [&](auto Kc) {
+    constexpr int K = decltype(Kc)::value;
+    if constexpr (K > 0) {
+      const Index nr = R.size();
+      R.basis_start.assign(nr + 1, 0);
+      for (Index r = 0; r < nr; ++r) R.basis_start[r + 1] = R.basis_start[r] + (R.length(r) < kShortRun ? R.length(r) : 0);
+      if (R.basis_start[nr] == 0) {
+        R.basis_start.clear();
+        return;
+      }
+      R.basis.resize(static_cast<size_t>(3 * K) * R.basis_start[nr]);
+      parallel_range(nr, threads, [&](Index b, Index e) {
+        for (Index r = b; r < e; ++r) {
+          if (R.length(r) >= kShortRun) continue;
+          double* out = R.basis.data() + 3 * K * R.basis_start[r];
+          for (Index v = R.start[r]; v < R.start[r + 1]; ++v, out += 3 * K)
+            detail::point_basis<K>(T, E, v, out, out + K, out + 2 * K);
+        }
+      });
+    }
+  });
+}
+
 namespace detail {
 
 using Lanes = Eigen::Array<double, 4, 1>;
+
+/// The basis values of point v of short run r, from R.basis where it is filled,
+/// else evaluated into `own` (3 kMaxOrder): u, v and w values at K-strides.
+template <int K>
+VPFFD_ALWAYS_INLINE const double* short_run_basis(const BasisTables& T, const Embedding& E, const CellRuns& R,
+                                                  Index r, Index v, double* own) {
+  if (!R.basis.empty()) return R.basis.data() + 3 * K * (R.basis_start[r] + (v - R.start[r]));
+  point_basis<K>(T, E, v, own, own + K, own + 2 * K);
+  return own;
+}
 
 /// The run's coefficient matrices (c[q K + i]: power q of function i) and its
 /// first control point.
@@ -273,10 +326,11 @@ void eval_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, cons
   for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
     std::array<Lanes, NC> g;
     if (R.length(r) < kShortRun) {
-      alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
+      alignas(32) double own[3 * kMaxOrder];
+      const Index base = cell_index(T, E, lo);
       for (Index v = lo; v < hi; ++v) {
-        const Index base = point_basis<K>(T, E, v, bu, bv, bw);
-        for (int c = 0; c < NC; ++c) g[c][0] = basis_dot<K>(T, D[c], base, bu, bv, bw, si, sj);
+        const double* B = short_run_basis<K>(T, E, R, r, v, own);
+        for (int c = 0; c < NC; ++c) g[c][0] = basis_dot<K>(T, D[c], base, B, B + K, B + 2 * K, si, sj);
         f(v, 1, g);
       }
       return;
@@ -302,13 +356,14 @@ void ffd_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, const
   PowerLanes<K> C[3];
   for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
     if (R.length(r) < kShortRun) {
-      alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
+      alignas(32) double own[3 * kMaxOrder];
+      const Index base = cell_index(T, E, lo);
       for (Index v = lo; v < hi; ++v) {
-        const Index base = point_basis<K>(T, E, v, bu, bv, bw);
+        const double* B = short_run_basis<K>(T, E, R, r, v, own);
         double* o = out + 3 * (rows ? Index(rows[v]) : v);
-        o[0] = basis_dot<K>(T, Px, base, bu, bv, bw, si, sj);
-        o[1] = basis_dot<K>(T, Py, base, bu, bv, bw, si, sj);
-        o[2] = basis_dot<K>(T, Pz, base, bu, bv, bw, si, sj);
+        o[0] = basis_dot<K>(T, Px, base, B, B + K, B + 2 * K, si, sj);
+        o[1] = basis_dot<K>(T, Py, base, B, B + K, B + 2 * K, si, sj);
+        o[2] = basis_dot<K>(T, Pz, base, B, B + K, B + 2 * K, si, sj);
       }
       return;
     }
@@ -428,7 +483,20 @@ void scatter_runs(const BasisTables& T, const Embedding& E, const CellRuns& R, W
   alignas(32) double M[K * K * K];
   for_each_run(R, b, e, [&](Index r, Index lo, Index hi) {
     if (R.length(r) < kShortRun) {
-      scatter_kernel<K>(T, E, weight, acc, lo, hi);
+      if (R.basis.empty()) {
+        scatter_kernel<K>(T, E, weight, acc, lo, hi);
+        return;
+      }
+      // scatter_kernel's arithmetic with the kept basis values: one cell, one block.
+      KVec block[K * K];
+      for (auto& x : block) x.setZero();
+      const double* B = R.basis.data() + 3 * K * R.basis_start[r] + 3 * K * (lo - R.start[r]);
+      for (Index v = lo; v < hi; ++v, B += 3 * K) {
+        const double wv = weight(v);
+        if (wv == 0.0) continue;
+        scatter_point<K>(wv, B, B + K, B + 2 * K, block);
+      }
+      add_block<K>(block, acc + cell_index(T, E, lo), si, sj);
       return;
     }
     KVec m[K * K];

@@ -86,6 +86,29 @@ void ffd_kernel(const BasisTables& T, const Embedding& E, const double* Px, cons
   }
 }
 
+/// One point's share of a scatter, w B_ijk, added into a cell's block (K^2 K-vectors,
+/// block[i K + j] along k). Factored as bu_i (bv_j w bw): K products, then K^2
+/// multiply-adds.
+template <int K>
+VPFFD_ALWAYS_INLINE void scatter_point(double wv, const double* bu, const double* bv, const double* bw,
+                                       KVec<K>* block) {
+  const KVec<K> wk = wv * kload<K>(bw);
+  KVec<K> t[K];
+  for (int j = 0; j < K; ++j) t[j] = bv[j] * wk;
+  for (int i = 0; i < K; ++i)
+    for (int j = 0; j < K; ++j) block[i * K + j] += bu[i] * t[j];
+}
+
+/// A cell's block added to the control values from its first one, `at`.
+template <int K>
+VPFFD_ALWAYS_INLINE void add_block(const KVec<K>* block, double* at, Index si, Index sj) {
+  for (int i = 0; i < K; ++i)
+    for (int j = 0; j < K; ++j) {
+      Eigen::Map<KVec<K>> a(at + i * si + j * sj);
+      a += block[i * K + j];
+    }
+}
+
 /// acc[c] += weight(v) * B_c(u_v) for v in [b, e): the transpose product B^T w.
 template <int K, class Weight>
 void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, double* acc, Index b, Index e) {
@@ -99,12 +122,8 @@ void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, d
   auto flush = [&] {
     if constexpr (K > 0) {
       if (block_base < 0) return;
-      for (int i = 0; i < K; ++i)
-        for (int j = 0; j < K; ++j) {
-          Eigen::Map<KVec<K>> a(acc + block_base + i * si + j * sj);
-          a += block[i * K + j];
-          block[i * K + j].setZero();
-        }
+      add_block<K>(block, acc + block_base, si, sj);
+      for (auto& x : block) x.setZero();
     }
   };
   for (Index v = b; v < e; ++v) {
@@ -118,12 +137,7 @@ void scatter_kernel(const BasisTables& T, const Embedding& E, Weight&& weight, d
         flush();
         block_base = base;
       }
-      // Factored as bu_i (bv_j w bw): K products, then K^2 multiply-adds.
-      const KVec<K> wk = wv * kload<K>(bw);
-      KVec<K> t[K];
-      for (int j = 0; j < K; ++j) t[j] = bv[j] * wk;
-      for (int i = 0; i < K; ++i)
-        for (int j = 0; j < K; ++j) block[i * K + j] += bu[i] * t[j];
+      scatter_point<K>(wv, bu, bv, bw, block);
     } else {
       for (int i = 0; i < T.order[0]; ++i)
         for (int j = 0; j < T.order[1]; ++j) {

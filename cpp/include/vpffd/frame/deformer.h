@@ -190,8 +190,9 @@ class Deformer {
   /// Memory the Deformer holds, in bytes per vertex: the embedding (36), the
   /// vertex and face orders (and a closed mesh's weight order, 4), the faces (as
   /// given, renumbered and, with parts, grouped by part), the vertex fans (closed
-  /// mesh, ~28-36: rows of 6-7 and tails) or rings (open, ~52), the cell runs, the
-  /// rest vertices and, once built, the vertex-face lists (about 190 bytes for a
+  /// mesh, ~28-36: rows of 6-7 and tails) or rings (open, ~52), the cell runs (with
+  /// 24 K bytes of basis values for each vertex in a run shorter than kShortRun: 96
+  /// for cubic lattices, fewer than 31 vertices per cell), the rest vertices and, once built, the vertex-face lists (about 190 bytes for a
   /// closed mesh, F = 2V, with the lists; 28 less without); 40 more once the rest
   /// mesh has moved (the next move's buffers: embedding 36, cells 4), and 4 while the
   /// adjacency waits to be relabelled after moves (the order it is in).
@@ -214,7 +215,7 @@ class Deformer {
     }
     bytes += double(spare_cells_.size()) * per_int;
     bytes += double(n_vertices() + spare_embedding_.size()) * Embedding::bytes_per_point;
-    bytes += double(runs_.start.size()) * sizeof(Index) + double(3 * runs_.size()) * per_int;
+    bytes += double(runs_.bytes());
     return bytes / double(n_vertices());
   }
 
@@ -402,12 +403,12 @@ class Deformer {
     // A moved object often keeps its processing order (no vertex changed cell, or all
     // its vertices moved together): then the faces and fans are those it has.
     if (order == order_) {
-      runs_ = cell_runs(embedding_, threads);
+      set_runs(threads);
       set_seam_shifts(V);
       return;
     }
     std::vector<std::int32_t> rank = inverse_order(order, threads);
-    runs_ = cell_runs(embedding_, threads);
+    set_runs(threads);
     // The faces keep the mesh's order (each part's together, set in the constructor),
     // renumbered by processing position when first needed (processing_faces). Sorting
     // them by their lowest vertex's position made no face pass faster (measured, 1
@@ -455,6 +456,14 @@ class Deformer {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       adjacency_.reset();  // of the old faces' numbering
     }
+  }
+
+  /// The cell runs of the embedding, with the basis values of their short runs' points
+  /// (cache_short_run_basis: a mesh with few points per cell then evaluates them once
+  /// per move, not in each of a frame's seven per-point passes).
+  void set_runs(int threads) {
+    runs_ = cell_runs(embedding_, threads);
+    cache_short_run_basis(tables_, embedding_, runs_, threads);
   }
 
   /// The faces' processing order: the mesh's own, each part's faces together
