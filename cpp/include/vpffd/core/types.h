@@ -19,6 +19,15 @@
 
 namespace vpffd {
 
+/// A hint that `p` will be read soon (no effect where the compiler has no such hint).
+VPFFD_ALWAYS_INLINE void prefetch(const void* p) {
+#if defined(__GNUC__) || defined(__clang__)
+  __builtin_prefetch(p);
+#else
+  (void)p;
+#endif
+}
+
 using Index = std::int64_t;
 using RowMatrixX3d = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 using RowMatrixX3i = Eigen::Matrix<std::int32_t, Eigen::Dynamic, 3, Eigen::RowMajor>;
