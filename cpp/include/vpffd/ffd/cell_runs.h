@@ -26,7 +26,10 @@
 /// point by point, so a run shorter than kShortRun (a coarse mesh in a fine
 /// lattice: a few points per cell) takes the per-point kernels' arithmetic
 /// instead. The choice depends on the whole run's length only, never on where a
-/// chunk boundary splits it, so results stay the same for any thread count.
+/// chunk boundary splits it, so results stay the same for any thread count. The
+/// basis values of a short run's points can be kept with the runs
+/// (cache_short_run_basis): a frame's seven per-point passes then read them, and
+/// evaluate nothing but the products with the control values.
 ///
 /// Only for uniform orders K = 2..6 (dispatch_order); K = 0 keeps the per-point kernels.
 
