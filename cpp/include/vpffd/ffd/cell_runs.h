@@ -91,7 +91,7 @@ inline CellRuns cell_runs(const Embedding& E, int threads = 1) {
 /// instead of evaluating them (a frame's FFD, three scatters and three gathers each
 /// spent about half their per-point time on the basis: 2,562-vertex sphere, 10^3
 /// lattice). Long runs keep nothing (the power form needs no basis values), so this
-/// costs 24 K bytes per point of a short run only, fewer than 31 per cell. The values
+/// costs 24 K bytes per point of a short run only (at most kShortRun - 1 per run). The values
 /// are point_basis's own, so results are the same bits with or without them. Only
 /// for uniform orders (the runs' kernels); otherwise R.basis is left empty.
 inline void cache_short_run_basis(const BasisTables& T, const Embedding& E, CellRuns& R, int threads = 1) {
@@ -102,7 +102,8 @@ inline void cache_short_run_basis(const BasisTables& T, const Embedding& E, Cell
     if constexpr (K > 0) {
       const Index nr = R.size();
       R.basis_start.assign(nr + 1, 0);
-      for (Index r = 0; r < nr; ++r) R.basis_start[r + 1] = R.basis_start[r] + (R.length(r) < kShortRun ? R.length(r) : 0);
+      for (Index r = 0; r < nr; ++r)
+        R.basis_start[r + 1] = R.basis_start[r] + (R.length(r) < kShortRun ? R.length(r) : 0);
       if (R.basis_start[nr] == 0) {
         R.basis_start.clear();
         return;

@@ -192,8 +192,9 @@ class Deformer {
   /// given, renumbered and, with parts, grouped by part), the vertex fans (closed
   /// mesh, ~28-36: rows of 6-7 and tails) or rings (open, ~52), the cell runs (with
   /// 24 K bytes of basis values for each vertex in a run shorter than kShortRun: 96
-  /// for cubic lattices, fewer than 31 vertices per cell), the rest vertices and, once built, the vertex-face lists (about 190 bytes for a
-  /// closed mesh, F = 2V, with the lists; 28 less without); 40 more once the rest
+  /// for cubic lattices), the rest vertices and, once built, the vertex-face lists
+  /// (about 190 bytes for a closed mesh, F = 2V, with the lists; 28 less without;
+  /// ~100 more where all vertices are in short runs); 40 more once the rest
   /// mesh has moved (the next move's buffers: embedding 36, cells 4), and 4 while the
   /// adjacency waits to be relabelled after moves (the order it is in).
   double bytes_per_vertex() const {
