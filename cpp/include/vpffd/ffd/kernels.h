@@ -45,9 +45,11 @@ inline Eigen::Map<const KVec<K>> kload(const double* p) {
 /// out[v] = sum_ijk B_ijk(u_v) P_ijk for v in [b, e); out is #points x 3 row-major.
 /// @param rows  if not null, point v goes to row rows[v] of out instead (the
 ///              caller's vertex order, written without a reordering pass)
+/// @param skip  0-2: that coordinate is written as 0 instead (a volume-preserving
+///              frame sets it in its first axis step, frame/deformer.h); -1: none
 template <int K>
 void ffd_kernel(const BasisTables& T, const Embedding& E, const double* Px, const double* Py, const double* Pz,
-                double* out, Index b, Index e, const std::int32_t* rows = nullptr) {
+                double* out, Index b, Index e, const std::int32_t* rows = nullptr, int skip = -1) {
   const Index sj = T.dims[2], si = Index(T.dims[1]) * T.dims[2];
   alignas(32) double bu[kMaxOrder], bv[kMaxOrder], bw[kMaxOrder];
   for (Index v = b; v < e; ++v) {
@@ -80,9 +82,9 @@ void ffd_kernel(const BasisTables& T, const Embedding& E, const double* Px, cons
         }
     }
     double* o = out + 3 * (rows ? Index(rows[v]) : v);
-    o[0] = x;
-    o[1] = y;
-    o[2] = z;
+    o[0] = skip == 0 ? 0.0 : x;
+    o[1] = skip == 1 ? 0.0 : y;
+    o[2] = skip == 2 ? 0.0 : z;
   }
 }
 

@@ -534,21 +534,36 @@ class Deformer {
 
   /// The FFD of the vertices into out: row i is processing position i, or vertex
   /// rows[i] when rows is given (order_: the caller's order, without a reordering pass).
+  /// Coordinate `skip` (0-2; -1 none) is written as 0 (see first_step_sets).
   void eval_ffd(const Eigen::Ref<const RowMatrixX3d>& P, double* out, int threads,
-                const std::int32_t* rows = nullptr) const {
+                const std::int32_t* rows = nullptr, int skip = -1) const {
     const PointColumns Q(expand_points(ties_, P));
     parallel_range(n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
         constexpr int k = decltype(K)::value;
         if constexpr (k > 0)
-          detail::ffd_runs<k>(tables_, embedding_, runs_, Q.x.data(), Q.y.data(), Q.z.data(), out, b, e, rows);
+          detail::ffd_runs<k>(tables_, embedding_, runs_, Q.x.data(), Q.y.data(), Q.z.data(), out, b, e, rows, skip);
         else
-          detail::ffd_kernel<k>(tables_, embedding_, Q.x.data(), Q.y.data(), Q.z.data(), out, b, e, rows);
+          detail::ffd_kernel<k>(tables_, embedding_, Q.x.data(), Q.y.data(), Q.z.data(), out, b, e, rows, skip);
       });
       if (seam_shift_.rows() > 0)
         for (Index i = b; i < e; ++i)
           for (int c = 0; c < 3; ++c) out[3 * (rows ? Index(rows[i]) : i) + c] += seam_shift_(i, c);
     });
+  }
+
+  /// The axis whose coordinate a volume-preserving frame's plain FFD leaves out, or -1.
+  /// The first axis step's weights do not read that step's own coordinate (a vertex's
+  /// weight for x is a sum of 2x2 determinants in y and z), so the FFD computes only
+  /// the other two; the step's volume comes from its coefficients instead,
+  /// V = sum_v w_v (x_v - o) = sum_c alpha_c (P_c - o) (x = B P, and B^T w = alpha),
+  /// and its gather sets the coordinate to B (P + delta) at once. That saves a third
+  /// of the FFD. Not where a "shift" seam adds per-vertex translations to the FFD
+  /// (x is then not B P), nor for the CSR method (its volume is a face pass over X).
+  int first_step_sets(const FramePlan& pl, const CorrectionOptions& opt) const {
+    if (!pl.correcting || !opt.preserve_volume || opt.axes.empty() || seam_shift_.rows() > 0) return -1;
+    if (parts_.count == 1 && opt.method != CoefficientMethod::Traversal) return -1;
+    return opt.axes[0];
   }
 
   /// Calls f(v, j) for every vertex v (caller index) with j its Jacobian dD/dx (9,
@@ -879,12 +894,13 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   // face_order_ is the identity) are processing_faces() face for face, the same terms
   // in the same order.
   const bool direct = !pl.correcting && K == 1;
+  const int skip = first_step_sets(pl, opt);
   RowMatrixX3d Xs(direct ? 0 : n_vertices(), 3);  // processing order
   if (direct) {
     res.vertices.resize(n_vertices(), 3);
     eval_ffd(P, res.vertices.data(), threads, order_.data());
   } else {
-    eval_ffd(P, Xs.data(), threads);
+    eval_ffd(P, Xs.data(), threads, nullptr, skip);
   }
   double* X = Xs.data();
   res.offsets = RowMatrixX3d::Zero(N, 3);
@@ -908,8 +924,11 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       info.axis = a;
       const bool last = step == k - 1;
       if (step == 0) sync_adjacency(threads);
-      const PartCoefficients co = part_coefficients_rings(tables_, embedding_, fans_, X, a, origin_, part_start_,
-                                                          threads, &runs_, weight_order_.data(), w.get());
+      PartCoefficients co = part_coefficients_rings(tables_, embedding_, fans_, X, a, origin_, part_start_, threads,
+                                                    &runs_, weight_order_.data(), w.get());
+      const VectorXd Pa = expand_column(ties_, P.col(a) + res.offsets.col(a), a);
+      const bool sets = step == 0 && skip >= 0;  // X's column a is 0 (first_step_sets)
+      if (sets) co.volume = co.alpha * (Pa.array() - origin_[a]).matrix();
       lap(tm.coefficients);
       info.volume_before = co.volume.sum();
       if (step == 0) {
@@ -919,7 +938,6 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       // Equal shares of what each part still misses: after the last axis every part is at its target.
       const VectorXd shares = (pl.part_targets - co.volume) / double(k - step);
       info.share = shares.sum();
-      const VectorXd Pa = expand_column(ties_, P.col(a) + res.offsets.col(a), a);
       const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, Pa);
       const VectorXd delta = solve_tied_parts(pl.ties, co.alpha.data(), co.alpha.cols(), K, shares.data(), rows, rhs,
                                               pl.inv_weight, axis_name[a], &info.sum_squares);
@@ -927,12 +945,16 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       res.offsets.col(a) += delta;
       res.steps.push_back(info);
       lap(tm.solves);
+      // The field the gather adds: the offsets, or where the FFD left column a at 0
+      // the corrected points themselves, P + delta.
+      VectorXd field = expand_offsets(ties_, delta);
+      if (sets) field += Pa;
       // The last gather measures each part's volume with that step's weights (as the
       // one-part frame below): no face pass after the correction either.
       if (last)
-        res.part_volumes = gather_final(expand_offsets(ties_, delta), X, a, w.get(), threads);
+        res.part_volumes = gather_final(field, X, a, w.get(), threads);
       else
-        gather(expand_offsets(ties_, delta), X, a, threads);
+        gather(field, X, a, threads);
       lap(tm.gathers);
     }
     res.volume = res.part_volumes.sum();
@@ -967,26 +989,31 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       info.axis = a;
       // A closed mesh's passes write their weights somewhere in any case
       // (coefficients_fans): into w, one buffer for all steps.
-      const AxisCoefficients co =
+      AxisCoefficients co =
           coefficients(X, a, opt.method, threads, fused && (last || is_closed()) ? w.get() : nullptr);
+      const VectorXd Pa = expand_column(ties_, P.col(a) + res.offsets.col(a), a);
+      const bool sets = step == 0 && skip >= 0;  // X's column a is 0 (first_step_sets)
+      if (sets) co.volume = co.alpha.dot((Pa.array() - origin_[a]).matrix());
       lap(tm.coefficients);
       info.volume_before = co.volume;
       if (step == 0) res.volume_before = co.volume;
       // Equal shares of what is still missing: after the last axis the volume is the target.
       info.share = (pl.target - co.volume) / (k - step);
-      const VectorXd Pa = expand_column(ties_, P.col(a) + res.offsets.col(a), a);
       const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, Pa);
       const VectorXd delta =
           solve_tied(pl.ties, &co.alpha, info.share, rows, rhs, pl.inv_weight, axis_name[a], &info.sum_squares);
-      const VectorXd delta_ext = expand_offsets(ties_, delta);
+      // The field the gather adds: the offsets, or where the FFD left column a at 0
+      // the corrected points themselves, P + delta.
+      VectorXd field = expand_offsets(ties_, delta);
+      if (sets) field += Pa;
       info.max_offset = delta.cwiseAbs().maxCoeff();
       res.offsets.col(a) += delta;
       res.steps.push_back(info);
       lap(tm.solves);
       if (last && fused) {
-        res.volume = gather_final(delta_ext, X, a, w.get(), threads)[0];
+        res.volume = gather_final(field, X, a, w.get(), threads)[0];
       } else {
-        gather(delta_ext, X, a, threads);
+        gather(field, X, a, threads);
       }
       lap(tm.gathers);
     }
