@@ -19,8 +19,13 @@ def _open_cap(mesh):
 def plain_frame(d, P, axes, weights=None, fixed=None, constraints=(), rounds=1, closed=True):
     """The paper's frame in numpy: per step the weights from a face pass, alpha = B^T w
     with the explicit basis matrix, the volume by the signed-volume sum, the minimum-norm
-    offsets of the volume row and the constraint rows, X += B delta along the axis."""
+    offsets of the volume row and the constraint rows, X += B delta along the axis.
+    With parts (d built with parts=...), one volume row per part: part k's alpha is the
+    scatter of its own vertices' weights, its share of what part k misses."""
     V, F = d.mesh.vertices, d.mesh.faces
+    part = d.vertex_parts if d.n_parts > 1 else np.zeros(len(V), np.int32)
+    K = int(part.max()) + 1
+    face_part = part[F[:, 0]]
     o = np.asarray(d._d.origin)
     B = d.basis_matrix()
     N = B.shape[1]
@@ -31,11 +36,14 @@ def plain_frame(d, P, axes, weights=None, fixed=None, constraints=(), rounds=1, 
     rows = [B[s].toarray()[0] if isinstance(s, int) else d.lattice.basis_matrix([s]).toarray()[0]
             for s, _ in constraints]
 
-    def volume(X):
+    def volumes(X):
         p = X[F] - o
-        return np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6
+        return np.bincount(face_part, np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])), K) / 6
 
-    target = d.rest_volume if closed else d._d.rest_volume(True)
+    def volume(X):
+        return volumes(X).sum()
+
+    target = (d.rest_part_volumes if K > 1 else [d.rest_volume]) if closed else [d._d.rest_volume(True)]
     offsets = np.zeros((N, 3))
     before = volume(X)
     k = len(axes) * rounds
@@ -50,9 +58,9 @@ def plain_frame(d, P, axes, weights=None, fixed=None, constraints=(), rounds=1, 
             for c in range(3):
                 pm, pn = X[F[:, (c + 1) % 3]] - o, X[F[:, (c + 2) % 3]] - o
                 w += np.bincount(F[:, c], pm[:, a1] * pn[:, a2] - pm[:, a2] * pn[:, a1], len(V)) / 6
-        alpha = B.T @ w
-        R = np.array([alpha] + rows)
-        b = np.array([(target - volume(X)) / (k - step)] +
+        alphas = [B.T @ np.where(part == j, w, 0.0) for j in range(K)]
+        R = np.array(alphas + rows)
+        b = np.array(list((target - volumes(X)) / (k - step)) +
                      [t[a] - r @ (P[:, a] + offsets[:, a]) for r, (_, t) in zip(rows, constraints)])
         RW = R * inv_w
         G = RW @ R.T
@@ -60,7 +68,7 @@ def plain_frame(d, P, axes, weights=None, fixed=None, constraints=(), rounds=1, 
         delta += RW.T @ np.linalg.solve(G, b - R @ delta)  # one refinement step, as the library does
         offsets[:, a] += delta
         X[:, a] += B @ delta
-    return X, offsets, volume(X), before
+    return X, offsets, volume(X), before, volumes(X)
 
 
 def _variants(lat, P, X, axes):
@@ -101,7 +109,7 @@ def test_optimised_frame_equals_plain_frame(closed):
             for name, kw in _variants(lat, P, X0, axes):
                 with pytest.warns(UserWarning) if not closed else contextlib.nullcontext():
                     r = d.deform(P, axes=axes, method=method, allow_open=not closed, **kw)
-                X, offsets, vol, before = plain_frame(d, P.reshape(-1, 3), axes, closed=closed, **kw)
+                X, offsets, vol, before, _ = plain_frame(d, P.reshape(-1, 3), axes, closed=closed, **kw)
                 where = f"{axes} {name} {method} threads={threads}"
                 assert np.abs(r.vertices - X).max() <= 1e-13 * diag, where
                 assert np.abs(r.offsets.reshape(-1, 3) - offsets).max() <= 1e-13 * np.abs(offsets).max(), where
@@ -112,6 +120,46 @@ def test_optimised_frame_equals_plain_frame(closed):
                 assert abs(r.volume - vol) <= 2 * vol_bound, where
                 assert abs(r.volume_before - before) <= 2 * vol_bound, where
                 assert abs(r.volume - r.target_volume) <= vol_bound, where
+
+
+def _two_spheres():
+    s = vpffd.shapes.icosphere(3)
+    mesh = vpffd.Mesh(np.concatenate([s.vertices, 0.8 * s.vertices + [2.2, 0.3, 0]]),
+                      np.concatenate([s.faces, s.faces + s.n_vertices]))
+    return mesh, np.repeat([0, 1], s.n_vertices)
+
+
+# As above with two parts, each keeping its own volume (one volume row each): every axis
+# order, weights, fixed points, constraints and rounds; and on a periodic lattice, where
+# the basis matrix is over the distinct control points (its tied copies folded in) and
+# so is the reference's solve. Same tolerances.
+@pytest.mark.parametrize("periodic", [False, True])
+def test_optimised_parts_frame_equals_plain_frame(periodic):
+    mesh, labels = _two_spheres()
+    if periodic:
+        lo, hi = mesh.vertices.min(axis=0) - 0.1, mesh.vertices.max(axis=0) + 0.1
+        lat = vpffd.Lattice(lo, hi, shape=(9, 5, 6), degree=3, periodic="x", seam="closed")
+    else:
+        lat = vpffd.Lattice.around(mesh, shape=(9, 5, 6), degree=3, padding=0.05)
+    P = vpffd.edits.twist(vpffd.edits.squash(lat.control_points, 0.6), 70)
+    diag = np.linalg.norm(lat.box_max - lat.box_min)
+    subsets = ["".join(p) for r in (1, 2, 3) for p in itertools.permutations("xyz", r)]
+    for threads in (1, 2):
+        d = vpffd.Deformer(mesh, lat, parts=labels,
+                           backend="openmp" if vpffd._core.has_openmp() else "serial", threads=threads)
+        assert d.n_parts == 2
+        X0 = d.ffd(P)
+        for axes in subsets:
+            for name, kw in _variants(lat, P, X0, axes):
+                r = d.deform(P, axes=axes, **kw)
+                X, offsets, vol, before, parts = plain_frame(d, P.reshape(-1, 3), axes, **kw)
+                where = f"{axes} {name} threads={threads}"
+                assert np.abs(r.vertices - X).max() <= 1e-13 * diag, where
+                assert np.abs(r.offsets.reshape(-1, 3) - offsets).max() <= 1e-13 * np.abs(offsets).max(), where
+                vol_bound = (len(mesh.faces) + 4) * 2.0 ** -53 * abs(vol)
+                assert np.abs(r.part_volumes - parts).max() <= 2 * vol_bound, where
+                assert abs(r.volume_before - before) <= 2 * vol_bound, where
+                assert np.abs(r.part_volumes - r.part_target_volumes).max() <= vol_bound, where
 
 
 def test_frame_timings_only_when_asked():
