@@ -552,18 +552,31 @@ class Deformer {
     });
   }
 
+  /// Whether a volume-preserving frame may take an axis step's volume from the step's
+  /// coefficients instead of summing it over the vertices: the vertices' `a`
+  /// coordinates are B P_a (P_a the current control points' `a` coordinates, the
+  /// tied copies included), so V = sum_v w_v (x_v - o) = sum_c alpha_c (P_a,c - o)
+  /// (alpha = B^T w; the B_c sum to 1). The coefficient pass then reads no `a`
+  /// coordinates (one stream of X fewer: the dragon's three coefficient passes 0.97x on 1 and 2 threads, bench_frame alternated three times). Not where a
+  /// "shift" seam adds per-vertex translations to the FFD (x is then not B P), nor
+  /// for the CSR method (its volume is a face pass over X). The last step still sums
+  /// over the vertices: its volume decides what the frame ends at, and the vertex sum
+  /// carries no rounding of the whole volume through alpha (the result stays within
+  /// a few ulps of the target, as before).
+  bool volume_by_coefficients(const CorrectionOptions& opt) const {
+    return seam_shift_.rows() == 0 && (parts_.count > 1 || opt.method == CoefficientMethod::Traversal);
+  }
+
   /// The axis whose coordinate a volume-preserving frame's plain FFD leaves out, or -1.
   /// The first axis step's weights do not read that step's own coordinate (a vertex's
   /// weight for x is a sum of 2x2 determinants in y and z), so the FFD computes only
-  /// the other two; the step's volume comes from its coefficients instead,
-  /// V = sum_v w_v (x_v - o) = sum_c alpha_c (P_c - o) (x = B P, and B^T w = alpha),
-  /// and its gather sets the coordinate to B (P + delta) at once. That saves a third
-  /// of the FFD. Not where a "shift" seam adds per-vertex translations to the FFD
-  /// (x is then not B P), nor for the CSR method (its volume is a face pass over X).
+  /// the other two; the step's volume comes from its coefficients
+  /// (volume_by_coefficients), and its gather sets the coordinate to B (P + delta) at
+  /// once. That saves a third of the FFD. Not for a one-step frame, whose only volume
+  /// is summed over the vertices.
   int first_step_sets(const FramePlan& pl, const CorrectionOptions& opt) const {
-    if (!pl.correcting || !opt.preserve_volume || opt.axes.empty() || seam_shift_.rows() > 0) return -1;
-    if (parts_.count == 1 && opt.method != CoefficientMethod::Traversal) return -1;
-    return opt.axes[0];
+    if (!pl.correcting || !opt.preserve_volume || opt.axes.size() * opt.rounds < 2) return -1;
+    return volume_by_coefficients(opt) ? opt.axes[0] : -1;
   }
 
   /// Calls f(v, j) for every vertex v (caller index) with j its Jacobian dD/dx (9,
@@ -677,17 +690,18 @@ class Deformer {
     adjacency_order_.clear();
   }
 
-  /// `weights` (#V, may be null) receives the traversal's per-vertex weights.
+  /// `weights` (#V, may be null) receives the traversal's per-vertex weights;
+  /// `measure` false: the traversal leaves the volume 0 (coefficients_fans).
   AxisCoefficients coefficients(const double* X, int axis, CoefficientMethod method, int threads,
-                                double* weights = nullptr) const {
+                                double* weights = nullptr, bool measure = true) const {
     if (!is_closed()) check_method(method);
     if (method == CoefficientMethod::Csr)
       return coefficients_csr(face_matrix(threads), X, processing_faces(), axis, origin_, threads);
     sync_adjacency(threads);
     if (is_closed())
       return coefficients_fans(tables_, embedding_, fans_, X, axis, origin_, threads, weights, &runs_,
-                               weight_order_.data());
-    return coefficients_rings(tables_, embedding_, rings_, X, axis, origin_, threads, true, weights, &runs_);
+                               weight_order_.data(), measure);
+    return coefficients_rings(tables_, embedding_, rings_, X, axis, origin_, threads, true, weights, &runs_, measure);
   }
 
   Lattice lattice_;
@@ -924,11 +938,12 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       info.axis = a;
       const bool last = step == k - 1;
       if (step == 0) sync_adjacency(threads);
-      PartCoefficients co = part_coefficients_rings(tables_, embedding_, fans_, X, a, origin_, part_start_, threads,
-                                                    &runs_, weight_order_.data(), w.get());
-      const VectorXd Pa = expand_column(ties_, P.col(a) + res.offsets.col(a), a);
       const bool sets = step == 0 && skip >= 0;  // X's column a is 0 (first_step_sets)
-      if (sets) co.volume = co.alpha * (Pa.array() - origin_[a]).matrix();
+      const bool by_coefficients = sets || (!last && volume_by_coefficients(opt));
+      PartCoefficients co = part_coefficients_rings(tables_, embedding_, fans_, X, a, origin_, part_start_, threads,
+                                                    &runs_, weight_order_.data(), w.get(), !by_coefficients);
+      const VectorXd Pa = expand_column(ties_, P.col(a) + res.offsets.col(a), a);
+      if (by_coefficients) co.volume = co.alpha * (Pa.array() - origin_[a]).matrix();
       lap(tm.coefficients);
       info.volume_before = co.volume.sum();
       if (step == 0) {
@@ -989,11 +1004,12 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       info.axis = a;
       // A closed mesh's passes write their weights somewhere in any case
       // (coefficients_fans): into w, one buffer for all steps.
-      AxisCoefficients co =
-          coefficients(X, a, opt.method, threads, fused && (last || is_closed()) ? w.get() : nullptr);
-      const VectorXd Pa = expand_column(ties_, P.col(a) + res.offsets.col(a), a);
       const bool sets = step == 0 && skip >= 0;  // X's column a is 0 (first_step_sets)
-      if (sets) co.volume = co.alpha.dot((Pa.array() - origin_[a]).matrix());
+      const bool by_coefficients = sets || (!last && volume_by_coefficients(opt));
+      AxisCoefficients co = coefficients(X, a, opt.method, threads,
+                                         fused && (last || is_closed()) ? w.get() : nullptr, !by_coefficients);
+      const VectorXd Pa = expand_column(ties_, P.col(a) + res.offsets.col(a), a);
+      if (by_coefficients) co.volume = co.alpha.dot((Pa.array() - origin_[a]).matrix());
       lap(tm.coefficients);
       info.volume_before = co.volume;
       if (step == 0) res.volume_before = co.volume;

@@ -177,15 +177,28 @@ decltype(auto) with_axis(int axis, F&& f) {
 /// in fixed chunks, each with its own N-double buffer, summed in chunk order: no
 /// atomics, the same result for any thread count.
 /// @param[out] weights  if not null, #V: the w_v
+/// @param measure  false: the volume is not summed (left 0), and the `ax` coordinates
+///                 are not read: a caller that has the volume otherwise (a frame's
+///                 alpha . (P - o), frame/deformer.h) saves that stream of X
 template <int ax, class WeightOf>
 AxisCoefficients weighted_scatter(const BasisTables& T, const Embedding& E, const CellRuns* runs, const double* X,
-                                  double o, int threads, double* weights, WeightOf&& weight_of) {
+                                  double o, int threads, double* weights, WeightOf&& weight_of, bool measure = true) {
   const Index nv = E.size();
   const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
   const int chunks = scatter_chunks(nv, N);
   std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
   std::vector<double> vol(chunks, 0.0);
   parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
+    double* acc = buf.data() + static_cast<size_t>(c) * N;
+    if (!measure) {
+      auto weight = [&](Index v) {
+        const double w = weight_of(v);
+        if (weights) weights[v] = w;
+        return w;
+      };
+      scatter(T, E, runs, weight, acc, b, e);
+      return;
+    }
     double vsum = 0;
     auto weight = [&](Index v) {
       const double w = weight_of(v);
@@ -193,7 +206,7 @@ AxisCoefficients weighted_scatter(const BasisTables& T, const Embedding& E, cons
       vsum += (X[3 * v + ax] - o) * w;
       return w;
     };
-    scatter(T, E, runs, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
+    scatter(T, E, runs, weight, acc, b, e);
     vol[c] = vsum;
   });
   AxisCoefficients out;
@@ -276,7 +289,7 @@ inline AxisCoefficients coefficients_traversal(const BasisTables& T, const Embed
 inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding& E, const VertexRings& rings,
                                            const double* X, int axis, const Vector3d& origin, int threads = 0,
                                            bool cone = false, double* weights = nullptr,
-                                           const CellRuns* runs = nullptr) {
+                                           const CellRuns* runs = nullptr, bool measure = true) {
   const std::int32_t* ip = rings.indptr.data();
   const std::int32_t* pr = rings.pairs.data();
   return detail::with_axis(axis, [&](auto axis_c) {
@@ -285,7 +298,7 @@ inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding
       const double* pv = X + 3 * v;
       return detail::ring_weight<ax>(X, ip, pr, v, cone ? origin[a1] : pv[a1], cone ? origin[a2] : pv[a2]);
     };
-    return detail::weighted_scatter<ax>(T, E, runs, X, origin[ax], threads, weights, weight_of);
+    return detail::weighted_scatter<ax>(T, E, runs, X, origin[ax], threads, weights, weight_of, measure);
   });
 }
 
@@ -303,10 +316,11 @@ inline AxisCoefficients coefficients_rings(const BasisTables& T, const Embedding
 /// @param row_vertex  if not null, #V: fan row -> vertex (processing position)
 /// @param weights  if not null, #V: receives the w_v (else a buffer is allocated;
 ///                 a frame passes one for all its steps)
+/// @param measure  false: the volume is left 0 (weighted_scatter)
 inline AxisCoefficients coefficients_fans(const BasisTables& T, const Embedding& E, const PaddedFans& fans,
                                           const double* X, int axis, const Vector3d& origin, int threads = 0,
                                           double* weights = nullptr, const CellRuns* runs = nullptr,
-                                          const std::int32_t* row_vertex = nullptr) {
+                                          const std::int32_t* row_vertex = nullptr, bool measure = true) {
   VPFFD_CHECK(fans.size() == E.size() && fans.width >= 1, "coefficients_fans: fans of ", fans.size(),
               " vertices, the embedding has ", E.size());
   std::vector<double> own;
@@ -318,7 +332,8 @@ inline AxisCoefficients coefficients_fans(const BasisTables& T, const Embedding&
   return detail::with_axis(axis, [&](auto axis_c) {
     constexpr int ax = decltype(axis_c)::value;
     detail::fan_weights<ax>(X, fans, row_vertex, weights, threads);
-    return detail::weighted_scatter<ax>(T, E, runs, X, origin[ax], threads, nullptr, [w](Index v) { return w[v]; });
+    return detail::weighted_scatter<ax>(
+        T, E, runs, X, origin[ax], threads, nullptr, [w](Index v) { return w[v]; }, measure);
   });
 }
 

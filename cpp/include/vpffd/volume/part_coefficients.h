@@ -58,12 +58,14 @@ inline std::vector<PartPiece> part_pieces(const std::vector<Index>& part_start, 
 /// @param runs  if not null, E's cell runs (as coefficients_rings)
 /// @param row_vertex  if not null, fan row -> vertex (as coefficients_fans)
 /// @param weights  if not null, #V: receives the w_v (else a buffer is allocated)
+/// @param measure  false: the volumes are left 0 and the `axis` coordinates not read
+///                 (as coefficients_fans)
 inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embedding& E, const PaddedFans& fans,
                                                 const double* X, int axis, const Vector3d& origin,
                                                 const std::vector<Index>& part_start, int threads = 0,
                                                 const CellRuns* runs = nullptr,
                                                 const std::int32_t* row_vertex = nullptr,
-                                                double* weights = nullptr) {
+                                                double* weights = nullptr, bool measure = true) {
   const Index nv = E.size();
   const Index N = Index(T.dims[0]) * T.dims[1] * T.dims[2];
   const int K = static_cast<int>(part_start.size()) - 1;
@@ -99,6 +101,10 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
     detail::fan_weights<ax>(X, fans, row_vertex, wv, threads);
     parallel_items(Index(pieces.size()), nv, threads, [&](Index q) {
       Piece& piece = pieces[q];
+      if (!measure) {
+        detail::scatter(T, E, runs, [&](Index v) { return wv[v]; }, piece.acc, piece.b, piece.e);
+        return;
+      }
       double vsum = 0;
       auto weight = [&](Index v) {
         const double* pv = X + 3 * v;
