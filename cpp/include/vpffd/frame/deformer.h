@@ -557,7 +557,8 @@ class Deformer {
   /// coordinates are B P_a (P_a the current control points' `a` coordinates, the
   /// tied copies included), so V = sum_v w_v (x_v - o) = sum_c alpha_c (P_a,c - o)
   /// (alpha = B^T w; the B_c sum to 1). The coefficient pass then reads no `a`
-  /// coordinates (one stream of X fewer: the dragon's three coefficient passes 0.97x on 1 and 2 threads, bench_frame alternated three times). Not where a
+  /// coordinates (one stream of X fewer: the dragon's three coefficient passes 0.97x
+  /// on 1 and 2 threads, bench_frame alternated three times). Not where a
   /// "shift" seam adds per-vertex translations to the FFD (x is then not B P), nor
   /// for the CSR method (its volume is a face pass over X). The last step still sums
   /// over the vertices: its volume decides what the frame ends at, and the vertex sum
