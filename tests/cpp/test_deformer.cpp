@@ -2,6 +2,9 @@
 // coefficient methods, thread counts, moving rest meshes). Length: one file per
 // class under test, like the other suites.
 #include <cmath>
+#include <limits>
+#include <random>
+#include <string>
 
 #include "helpers.h"
 
@@ -591,4 +594,62 @@ TEST(Deformer, UncorrectedFrameIsTheFfdInTheCallersOrder) {
     // One part: the faces keep the mesh's order, so the caller's faces give the same sum.
     EXPECT_EQ(r.volume, signed_volume(X, m.F, D.origin()));
   }
+}
+
+// The volume row alone (the common axis step, solve_volume_row) against what the
+// minimiser must be: delta = W^-1 alpha lambda with alpha . delta = rhs, zero at fixed
+// points, for coefficients from 1e-150 to 1e150 (the row scaled by a power of two).
+TEST(Solve, VolumeRowAloneIsTheWeightedMinimumNorm) {
+  std::mt19937 gen(5);
+  std::uniform_real_distribution<double> u(-1, 1), w(0.2, 5);
+  const Index N = 200;
+  for (double size : {1e-150, 1.0, 1e150}) {
+    VectorXd alpha(N), inv_weight(N);
+    for (Index c = 0; c < N; ++c) {
+      alpha[c] = size * u(gen);
+      inv_weight[c] = c % 7 == 0 ? 0.0 : w(gen);
+    }
+    const double rhs = size * 0.37;
+    double sum_squares = 0;
+    const VectorXd delta = solve_axis_offsets(&alpha, rhs, {}, {}, inv_weight, 'x', &sum_squares);
+    double expect_ss = 0, abs_sum = 0;
+    for (Index c = 0; c < N; ++c) {
+      expect_ss += inv_weight[c] * (alpha[c] / size) * (alpha[c] / size);
+      abs_sum += std::abs(alpha[c] * delta[c]);
+    }
+    // Each product and sum of N terms within N u of its magnitude (N = 200: ~4e-14).
+    const double tol = 4.0 * N * std::numeric_limits<double>::epsilon();
+    EXPECT_NEAR(sum_squares / (size * size), expect_ss, tol * expect_ss) << size;
+    EXPECT_NEAR(alpha.dot(delta), rhs, tol * abs_sum) << size;
+    const double lambda = delta[1] / (inv_weight[1] * alpha[1]);
+    for (Index c = 0; c < N; ++c) {
+      if (inv_weight[c] == 0) {
+        EXPECT_EQ(delta[c], 0.0) << c;
+      } else {
+        EXPECT_NEAR(delta[c], inv_weight[c] * alpha[c] * lambda, tol * std::abs(delta[c])) << c;
+      }
+    }
+  }
+  VectorXd alpha = VectorXd::Zero(N), inv_weight = VectorXd::Ones(N);
+  EXPECT_THROW(
+      {
+        try {
+          solve_axis_offsets(&alpha, 1.0, {}, {}, inv_weight, 'y', nullptr);
+        } catch (const SolverError& e) {
+          EXPECT_NE(std::string(e.what()).find("are all zero"), std::string::npos) << e.what();
+          throw;
+        }
+      },
+      SolverError);
+  alpha[3] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(
+      {
+        try {
+          solve_axis_offsets(&alpha, 1.0, {}, {}, inv_weight, 'y', nullptr);
+        } catch (const SolverError& e) {
+          EXPECT_NE(std::string(e.what()).find("overflow"), std::string::npos) << e.what();
+          throw;
+        }
+      },
+      SolverError);
 }
