@@ -580,6 +580,16 @@ class Deformer {
     return volume_by_coefficients(opt) ? opt.axes[0] : -1;
   }
 
+  /// The field an axis step's gather adds along its axis: the offsets delta (distinct
+  /// points), extended to the tied copies; where the FFD left that coordinate at 0
+  /// (`sets`, first_step_sets), the corrected points themselves, Pa + delta (Pa the
+  /// step's extended control point coordinates).
+  VectorXd gather_field(const VectorXd& delta, const VectorXd& Pa, bool sets) const {
+    VectorXd field = expand_offsets(ties_, delta);
+    if (sets) field += Pa;
+    return field;
+  }
+
   /// Calls f(v, j) for every vertex v (caller index) with j its Jacobian dD/dx (9,
   /// row-major; at a twist seam's wrapped points that of the wrapped twin, see
   /// unmirror_jacobian), computed in blocks of the processing order in a small buffer
@@ -961,10 +971,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       res.offsets.col(a) += delta;
       res.steps.push_back(info);
       lap(tm.solves);
-      // The field the gather adds: the offsets, or where the FFD left column a at 0
-      // the corrected points themselves, P + delta.
-      VectorXd field = expand_offsets(ties_, delta);
-      if (sets) field += Pa;
+      const VectorXd field = gather_field(delta, Pa, sets);
       // The last gather measures each part's volume with that step's weights (as the
       // one-part frame below): no face pass after the correction either.
       if (last)
@@ -1019,10 +1026,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
       const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, Pa);
       const VectorXd delta =
           solve_tied(pl.ties, &co.alpha, info.share, rows, rhs, pl.inv_weight, axis_name[a], &info.sum_squares);
-      // The field the gather adds: the offsets, or where the FFD left column a at 0
-      // the corrected points themselves, P + delta.
-      VectorXd field = expand_offsets(ties_, delta);
-      if (sets) field += Pa;
+      const VectorXd field = gather_field(delta, Pa, sets);
       info.max_offset = delta.cwiseAbs().maxCoeff();
       res.offsets.col(a) += delta;
       res.steps.push_back(info);

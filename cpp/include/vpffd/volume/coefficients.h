@@ -188,27 +188,25 @@ AxisCoefficients weighted_scatter(const BasisTables& T, const Embedding& E, cons
   const int chunks = scatter_chunks(nv, N);
   std::vector<double> buf(static_cast<size_t>(chunks) * N, 0.0);
   std::vector<double> vol(chunks, 0.0);
-  parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
-    double* acc = buf.data() + static_cast<size_t>(c) * N;
-    if (!measure) {
+  // `measure` as a compile-time constant: tested per point, the branch slowed the
+  // dragon's coefficient passes by ~4 % (bench_frame, two alternations).
+  auto pass = [&](auto measure_c) {
+    parallel_chunks(nv, chunks, threads, [&](int c, Index b, Index e) {
+      double vsum = 0;
       auto weight = [&](Index v) {
         const double w = weight_of(v);
         if (weights) weights[v] = w;
+        if constexpr (decltype(measure_c)::value) vsum += (X[3 * v + ax] - o) * w;
         return w;
       };
-      scatter(T, E, runs, weight, acc, b, e);
-      return;
-    }
-    double vsum = 0;
-    auto weight = [&](Index v) {
-      const double w = weight_of(v);
-      if (weights) weights[v] = w;
-      vsum += (X[3 * v + ax] - o) * w;
-      return w;
-    };
-    scatter(T, E, runs, weight, acc, b, e);
-    vol[c] = vsum;
-  });
+      scatter(T, E, runs, weight, buf.data() + static_cast<size_t>(c) * N, b, e);
+      vol[c] = vsum;
+    });
+  };
+  if (measure)
+    pass(std::true_type{});
+  else
+    pass(std::false_type{});
   AxisCoefficients out;
   out.alpha = sum_chunks(buf, chunks, N, threads);
   for (double v : vol) out.volume += v;

@@ -96,27 +96,28 @@ inline PartCoefficients part_coefficients_rings(const BasisTables& T, const Embe
   const double o = origin[axis];
   std::vector<double> own(weights ? 0 : nv);  // the weights first, row by row (coefficients_fans)
   double* wv = weights ? weights : own.data();
-  auto pass = [&](auto axis_c) {
+  // Axis and `measure` as compile-time constants (weighted_scatter).
+  auto pieces_pass = [&](auto axis_c, auto measure_c) {
     constexpr int ax = decltype(axis_c)::value;
     detail::fan_weights<ax>(X, fans, row_vertex, wv, threads);
     parallel_items(Index(pieces.size()), nv, threads, [&](Index q) {
       Piece& piece = pieces[q];
-      if (!measure) {
-        detail::scatter(T, E, runs, [&](Index v) { return wv[v]; }, piece.acc, piece.b, piece.e);
-        return;
-      }
       double vsum = 0;
       auto weight = [&](Index v) {
-        const double* pv = X + 3 * v;
         const double w = wv[v];
-        vsum += (pv[ax] - o) * w;
+        if constexpr (decltype(measure_c)::value) vsum += (X[3 * v + ax] - o) * w;
         return w;
       };
       detail::scatter(T, E, runs, weight, piece.acc, piece.b, piece.e);
       piece.volume = vsum;
     });
   };
-  detail::with_axis(axis, pass);
+  detail::with_axis(axis, [&](auto axis_c) {
+    if (measure)
+      pieces_pass(axis_c, std::true_type{});
+    else
+      pieces_pass(axis_c, std::false_type{});
+  });
 
   out.volume = VectorXd::Zero(K);
   for (const Piece& p : pieces) {
