@@ -630,26 +630,19 @@ TEST(Solve, VolumeRowAloneIsTheWeightedMinimumNorm) {
       }
     }
   }
+  // The refusals: the message of each (the general path's).
+  const auto refusal = [](const VectorXd& alpha, const VectorXd& inv_weight) -> std::string {
+    try {
+      solve_axis_offsets(&alpha, 1.0, {}, {}, inv_weight, 'y', nullptr);
+    } catch (const SolverError& e) {
+      return e.what();
+    }
+    return "no SolverError";
+  };
   VectorXd alpha = VectorXd::Zero(N), inv_weight = VectorXd::Ones(N);
-  EXPECT_THROW(
-      {
-        try {
-          solve_axis_offsets(&alpha, 1.0, {}, {}, inv_weight, 'y', nullptr);
-        } catch (const SolverError& e) {
-          EXPECT_NE(std::string(e.what()).find("are all zero"), std::string::npos) << e.what();
-          throw;
-        }
-      },
-      SolverError);
+  const std::string zero = refusal(alpha, inv_weight);
+  EXPECT_NE(zero.find("are all zero"), std::string::npos) << zero;
   alpha[3] = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_THROW(
-      {
-        try {
-          solve_axis_offsets(&alpha, 1.0, {}, {}, inv_weight, 'y', nullptr);
-        } catch (const SolverError& e) {
-          EXPECT_NE(std::string(e.what()).find("overflow"), std::string::npos) << e.what();
-          throw;
-        }
-      },
-      SolverError);
+  const std::string overflow = refusal(alpha, inv_weight);
+  EXPECT_NE(overflow.find("overflow"), std::string::npos) << overflow;
 }

@@ -9,6 +9,8 @@ import pytest
 
 import vpffd
 
+U = np.finfo(float).eps / 2  # unit roundoff
+
 
 def _open_cap(mesh):
     """The mesh with the faces above z = 0.7 removed (an open surface)."""
@@ -185,3 +187,49 @@ def test_mesh_volume_checks_closedness_once(monkeypatch):
     monkeypatch.undo()
     with pytest.raises(vpffd.InvalidInputError, match="boundary edges"):
         _open_cap(mesh).volume
+
+
+# Where the numpy frame cannot be the reference (a "shift" seam's map is affine: no
+# basis matrix) the CSR method is: it takes none of the traversal's shortcuts (the
+# first step's coordinate set by its gather, earlier steps' volumes from alpha), and a
+# shift seam turns them off for the traversal too. A sphere across the periodic seam
+# (its image torn in two there), and mixed degrees (the per-point kernels).
+# Tolerance: each measured volume is a fixed-order sum of F face terms, or of vertex
+# terms w_v (x_v - o)_a whose magnitudes add to at most T = max_a sum_f sum_corners
+# |n_f,a| |x_c - o|_a / 6, each term with a few roundings, those through alpha with
+# the scatter's too (tens of u: the basis values and the power-form moments); so two
+# volumes differ by at most vol_err = 4 (F + 64) u max(T, sum_f |V_f|). A step's
+# offsets are W^-1 alpha share / G: an error e in the volume a step starts from moves
+# its offsets by e / |share| relatively, and each later step inherits it.
+@pytest.mark.parametrize("seam", ["closed", "twist", "shift", "mixed degrees"])
+def test_traversal_frame_equals_csr_frame(seam):
+    rng = np.random.default_rng(7)
+    sphere = vpffd.shapes.icosphere(3)
+    if seam == "mixed degrees":
+        mesh = sphere
+        lat = vpffd.Lattice.around(sphere, shape=(6, 5, 7), degree=(2, 3, 2), padding=0.05)
+    else:
+        mesh = vpffd.Mesh(0.4 * sphere.vertices + [0.95, 0.1, -0.1], sphere.faces)  # across x = 1
+        lat = vpffd.Lattice((-1, -1, -1), (1, 1, 1), shape=(7, 4, 4), degree=3, periodic="x", seam=seam)
+    P = lat.control_points + rng.normal(scale=0.04, size=lat.control_points.shape)
+    d = vpffd.Deformer(mesh, lat, threads=2)
+    o = np.asarray(d._d.origin)
+    F = mesh.faces
+    X0 = d.ffd(P)
+    p = X0[F] - o
+    S = np.abs(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2]))).sum() / 6
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    T = max((np.abs(n[:, a])[:, None] * np.abs(p[:, :, a])).sum() / 6 for a in range(3))
+    vol_err = 4 * (len(F) + 64) * U * max(T, S)
+    diag = np.linalg.norm(lat.box_max - lat.box_min)
+    for axes in ("xyz", "zx", "yxz", "y"):
+        a = d.deform(P, axes=axes)
+        b = d.deform(P, axes=axes, method="csr")
+        share = min(abs(s["share"]) for s in b.steps)
+        rel = 1e-13 + len(axes) * vol_err / share
+        big = np.abs(b.offsets).max()
+        assert np.abs(a.offsets - b.offsets).max() <= rel * big, (seam, axes)
+        assert np.abs(a.vertices - b.vertices).max() <= 1e-13 * diag + rel * big, (seam, axes)
+        assert abs(a.volume_before - b.volume_before) <= vol_err, (seam, axes)
+        assert abs(a.volume - a.target_volume) <= vol_err, (seam, axes)
+        assert rel < 1e-6  # meaningful: a wrong first volume moves the offsets by O(1)
