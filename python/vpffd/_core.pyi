@@ -203,6 +203,10 @@ class Deformer:
         """
         The rest volume set_rest_vertices(vertices) would give (the same sum), without moving.
         """
+    def set_rest_offsets(self, offsets: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
+        """
+        Moves each part (the whole mesh without parts) by its row of offsets (K, 3) from the base positions (see vpffd::Deformer::set_rest_offsets).
+        """
     def set_rest_vertices(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
         ...
     def volume_coefficients(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], axis: typing.SupportsInt | typing.SupportsIndex, method: str = 'traversal', threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"], float]:
@@ -233,6 +237,9 @@ class Deformer:
         ...
     @property
     def part_labels(self) -> list[int]:
+        ...
+    @property
+    def rest_is_offset(self) -> bool:
         ...
     @property
     def rest_vertices(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
@@ -368,6 +375,10 @@ class VulkanDeformer:
     def rest_volume_of(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> float:
         """
         The rest volume set_rest_vertices(vertices) would give (the same sum), without moving.
+        """
+    def set_rest_offsets(self, offsets: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> None:
+        """
+        Moves each part (the whole mesh without parts) by its row of offsets (K, 3) from the base positions: only the offsets go to the device (see vpffd::vulkan::VulkanDeformer::set_rest_offsets).
         """
     def set_rest_vertices(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> None:
         """

@@ -99,8 +99,9 @@ class Deformer:
     Attributes
     ----------
     mesh : Mesh
-        the rest mesh: after ``set_rest_vertices`` a new Mesh with the new rest
-        vertices and the same faces (a Mesh object held elsewhere is unchanged).
+        the rest mesh: after ``set_rest_vertices`` or ``set_rest_offsets`` a new Mesh
+        with the new rest vertices and the same faces (a Mesh object held elsewhere is
+        unchanged).
     """
 
     def __init__(self, mesh, lattice: Lattice, backend: str = "auto", outside: str = "error", threads=None,
@@ -108,7 +109,12 @@ class Deformer:
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice: expected a vpffd.Lattice, got {type(lattice).__name__}")
         precision = _requested_precision(gpu_precision)
-        self.mesh = Mesh.from_any(mesh)
+        self._mesh = Mesh.from_any(mesh)
+        # set_rest_offsets: the base positions it moves from (None before its first
+        # move), and the offsets of the last move while `_mesh` waits to become the
+        # moved mesh (the translated vertices are made only when read).
+        self._base = None
+        self._pending_offsets = None
         self.lattice = lattice
         labels = _part_labels(parts, self.mesh.n_vertices)
         _check_memory(lattice.n_control_points, "Deformer", _FRAME_BYTES_PER_CONTROL_POINT,
@@ -157,6 +163,20 @@ class Deformer:
                 source.resolve(holder)
             except Exception:  # noqa: BLE001 (a finaliser must not raise; the read will say so)
                 pass
+
+    @property
+    def mesh(self) -> Mesh:
+        """The rest mesh: after ``set_rest_vertices`` or ``set_rest_offsets`` a new Mesh
+        with the moved vertices and the same faces (a Mesh object held elsewhere is
+        unchanged)."""
+        if self._pending_offsets is not None:
+            O = self._pending_offsets
+            parts = self._core.vertex_parts if self._core.has_parts else None
+            # The core's own sum (base + offset, one rounding): the same bits.
+            X = self._base + (O[parts] if parts is not None else O[0])
+            self._mesh = self._mesh._with_vertices(X)
+            self._pending_offsets = None
+        return self._mesh
 
     @property
     def _holder(self):
@@ -232,17 +252,86 @@ class Deformer:
         """
         # NaN and infinities are refused by the core's embedding, which reads every
         # coordinate anyway ("vertex i has a non-finite coordinate").
-        X = _arrays.points(vertices, "set_rest_vertices: vertices", rows=self.mesh.n_vertices, finite=False)
+        X = _arrays.points(vertices, "set_rest_vertices: vertices", rows=self._mesh.n_vertices, finite=False)
         holder = self._holder
         known = holder.rest_volume(True) if holder.rest_volume_known else None
+        old = self._volume_vertices()
         if self._vk is not None:
             self._vk.set_rest_vertices(X)
         else:
             self._core.set_rest_vertices(X, self._threads)
         # Results of the old rest mesh that have not read its volume sum it from its vertices.
-        self._rest_source.retire(self.mesh.vertices, known)
+        self._rest_source.retire(old, known)
         self._rest_source = RestVolumeSource(self)
-        self.mesh = self.mesh._with_vertices(X)
+        self._pending_offsets = None
+        self._base = None
+        self._mesh = self._mesh._with_vertices(X)
+
+    def set_rest_offsets(self, offsets) -> None:
+        """Moves the rest mesh by translations: each part's vertices (with ``parts``;
+        the whole mesh's without) to their base positions plus the part's offset. The
+        base is the rest mesh of construction or of the last ``set_rest_vertices``:
+        offsets do not add up from one call to the next. This is the moving-object
+        input of the GPU FFD paper (rest positions x + o(t): the whales' ring, a car
+        over terrain; ``animate.PathOffset.offset`` gives o(t)).
+
+        The next frame equals the one after ``set_rest_vertices(base + offsets)``, bit
+        for bit, with one difference: the rest volumes, the targets of
+        ``preserve_volume``, stay those of the base (a translation does not change a
+        closed surface's volume; summing the moved positions again would differ by
+        rounding only), so they are summed once, not after every move. An open mesh
+        without parts (``allow_open``: cone volumes from the lattice centre, which a
+        translation changes) sums them again, as ``set_rest_vertices`` does. On
+        "vulkan" only the K offsets go to the device, which moves, embeds and sorts
+        the vertices it keeps; the host tests the moved parts' bounding boxes against
+        the lattice box (the same refusals as ``set_rest_vertices``, in O(K)).
+
+        Parameters
+        ----------
+        offsets : (3,) or (K, 3) float
+            one translation for every part (or for the whole mesh), or one per part in
+            the order of ``part_labels`` (K = ``n_parts``), in world units.
+
+        Raises
+        ------
+        InvalidInputError
+            wrong shape, NaN/Inf, or vertices moved outside the lattice box (unless
+            built with ``outside="extrapolate"``). The Deformer is unchanged then.
+        """
+        K = self._core.n_parts
+        arr = np.asarray(offsets)
+        if not _arrays.is_real(arr.dtype):
+            raise TypeError(f"set_rest_offsets: offsets: expected real numbers, got dtype {arr.dtype}")
+        if arr.shape == (3,):
+            arr = np.broadcast_to(arr, (K, 3))
+        if arr.shape != (K, 3):
+            raise InvalidInputError(f"set_rest_offsets: offsets: expected shape (3,) or ({K}, 3) (one row per part), "
+                                    f"got {arr.shape}")
+        O = np.array(arr, dtype=np.float64, order="C")
+        keep = self._core.has_parts or self._core.is_closed
+        retire = None
+        if not keep:
+            holder = self._holder
+            retire = (self._volume_vertices(), holder.rest_volume(True) if holder.rest_volume_known else None)
+        base = self._base if self._base is not None else self.mesh.vertices
+        if self._vk is not None:
+            self._vk.set_rest_offsets(O)
+        else:
+            self._core.set_rest_offsets(O, self._threads)
+        if retire is not None:
+            # The volume changes with the move: results of the old rest mesh keep theirs.
+            self._rest_source.retire(*retire)
+            self._rest_source = RestVolumeSource(self)
+        # else the rest volumes stay the base's: results keep reading the current source.
+        self._base = base
+        self._pending_offsets = O
+
+    def _volume_vertices(self) -> np.ndarray:
+        """The vertices the current rest volume is the sum of: the base's after
+        ``set_rest_offsets`` on a closed mesh or parts, else the rest vertices."""
+        if self._base is not None and (self._core.has_parts or self._core.is_closed):
+            return self._base
+        return self.mesh.vertices
 
     @property
     def bytes_per_vertex(self) -> float:
@@ -299,7 +388,7 @@ class Deformer:
         the mesh with the given current vertices (V, 3), and its volume. Moving the
         control points by delta along that axis changes the volume by alpha @ delta."""
         a = _arrays.axis(axis)
-        X = _arrays.points(vertices, "volume_coefficients: vertices", rows=self.mesh.n_vertices)
+        X = _arrays.points(vertices, "volume_coefficients: vertices", rows=self._mesh.n_vertices)
         alpha, volume = self._d.volume_coefficients(X, a, method, self._threads)
         if self.lattice.periodic:  # a move of a distinct point moves its tied copies too
             alpha = self.lattice._fold_matrix().T @ alpha
@@ -452,7 +541,7 @@ class Deformer:
             rest_volume=rest, constraint_error=r["constraint_error"], steps=r["steps"],
             # The device always runs the traversal: report what ran, not what was asked.
             backend=self.backend, method="traversal" if self._vk is not None else method, folds=folds,
-            faces=self.mesh.faces, normals=self._frame_normals(r, normals), part_volumes=r.get("part_volumes"),
+            faces=self._mesh.faces, normals=self._frame_normals(r, normals), part_volumes=r.get("part_volumes"),
             part_volumes_before=r.get("part_volumes_before"), part_target_volumes=r.get("part_targets"))
 
     def _frame_options(self, preserve_volume, axes, w, fx, cons, tv, part_targets, method, allow_open, rounds):

@@ -308,6 +308,77 @@ TEST(MovingRest, OpenMeshPartsAndPeriodicEqualAFreshDeformer) {
   }
 }
 
+/// D (moved by offsets) against `fresh` (built on X = base + offsets): expect_same_deformer
+/// but for the rest volumes, which D keeps from its base (`base_volumes`); the frames
+/// then aim at those on both sides and are the same bits.
+void expect_same_but_base_volumes(const Deformer& D, const Deformer& fresh, const RowMatrixX3d& X,
+                                  const RowMatrixX3d& P, const VectorXd& base_volumes) {
+  EXPECT_EQ(D.rest_vertices(), X);
+  EXPECT_EQ(D.processing_order(), fresh.processing_order());
+  EXPECT_EQ(D.part_start(), fresh.part_start());
+  EXPECT_EQ(D.rest_part_volumes(), base_volumes);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_EQ(D.processing_embedding().span[a], fresh.processing_embedding().span[a]);
+    EXPECT_EQ(D.processing_embedding().tau[a], fresh.processing_embedding().tau[a]);
+  }
+  CorrectionOptions o;
+  if (D.has_parts())
+    o.part_targets.assign(base_volumes.data(), base_volumes.data() + base_volumes.size());
+  else
+    o.target_volume = base_volumes[0];
+  const DeformResult a = D.deform(P, {}), b = fresh.deform(P, o);
+  EXPECT_EQ(a.vertices, b.vertices);
+  EXPECT_EQ(a.volume, b.volume);
+  EXPECT_EQ(a.part_volumes, b.part_volumes);
+}
+
+TEST(MovingRest, OffsetsEqualPositionsButKeepTheBaseVolumes) {
+  // Two spheres as parts on a periodic lattice (shift seam), each moved by its own
+  // offset past the seam, from the base (offsets do not accumulate).
+  const TriMesh s = icosphere(2);
+  TriMesh two;
+  two.V.resize(2 * s.V.rows(), 3);
+  two.F.resize(2 * s.F.rows(), 3);
+  two.V << s.V, s.V.rowwise() + Eigen::RowVector3d(2.5, 0, 0);
+  two.F << s.F, s.F.array() + int(s.V.rows());
+  const MeshParts parts = parts_from_components(two.F, two.V.rows());
+  const Lattice L = make_lattice(Vector3d(-1.5, -1.5, -1.5), Vector3d(5.5, 1.5, 1.5), {8, 4, 4}, {3, 2, 2},
+                                 {Seam::Shift, Seam::None, Seam::None});
+  const RowMatrixX3d P = restrict_points(make_ties(L), squashed(L, 0.7));
+  Deformer D(two.V, two.F, L, OutsidePolicy::Error, 2, &parts);
+  const VectorXd base = D.rest_part_volumes();
+  for (int step = 1; step <= 4; ++step) {
+    RowMatrixX3d O(2, 3);
+    O << 1.3 * step, 0.02, -0.02, -0.7 * step, -0.03, 0.01;
+    D.set_rest_offsets(O, step % 2 + 1);
+    RowMatrixX3d X = two.V;
+    for (Index v = 0; v < X.rows(); ++v) X.row(v) += O.row(parts.vertex_part[v]);
+    expect_same_but_base_volumes(D, Deformer(X, two.F, L, OutsidePolicy::Error, 1, &parts), X, P, base);
+  }
+  // A new base from set_rest_vertices: its volumes are then the kept ones.
+  const RowMatrixX3d Y = moved(two.V, Vector3d(0.4, 0, 0), 0.01);
+  D.set_rest_vertices(Y, 2);
+  EXPECT_FALSE(D.rest_is_offset());
+  const VectorXd base_y = D.rest_part_volumes();
+  RowMatrixX3d O(2, 3);
+  O << 0.1, 0.2, 0.0, 0.3, -0.1, 0.05;
+  D.set_rest_offsets(O, 2);
+  EXPECT_TRUE(D.rest_is_offset());
+  EXPECT_EQ(D.base_vertices(), Y);
+  RowMatrixX3d X = Y;
+  for (Index v = 0; v < X.rows(); ++v) X.row(v) += O.row(parts.vertex_part[v]);
+  expect_same_but_base_volumes(D, Deformer(X, two.F, L, OutsidePolicy::Error, 1, &parts), X, P, base_y);
+  // Refusals leave everything as it was: wrong count, non-finite, outside.
+  EXPECT_THROW(D.set_rest_offsets(O.topRows(1)), InvalidInputError);
+  RowMatrixX3d bad = O;
+  bad(1, 2) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(D.set_rest_offsets(bad), InvalidInputError);
+  bad = O;
+  bad(0, 1) = 1.0;  // y is not periodic: the sphere leaves the box
+  EXPECT_THROW(D.set_rest_offsets(bad), InvalidInputError);
+  expect_same_but_base_volumes(D, Deformer(X, two.F, L, OutsidePolicy::Error, 1, &parts), X, P, base_y);
+}
+
 TEST(MovingRest, RestVolumeWaitsForItsFirstUseAndIsTheEagerSum) {
   const TriMesh m = icosphere(3);
   const Lattice L = lattice_around(m.V, {6, 6, 6}, 3, 0.4);

@@ -58,6 +58,16 @@ void bind_deformer(py::module_& m) {
             d.set_rest_vertices(X, threads);
           },
           py::arg("vertices"), py::arg("threads") = 0)
+      .def(
+          "set_rest_offsets",
+          [](Deformer& d, RefV offsets, int threads) {
+            py::gil_scoped_release release;
+            d.set_rest_offsets(offsets, threads);
+          },
+          py::arg("offsets"), py::arg("threads") = 0,
+          "Moves each part (the whole mesh without parts) by its row of offsets (K, 3) from the base "
+          "positions (see vpffd::Deformer::set_rest_offsets).")
+      .def_property_readonly("rest_is_offset", &Deformer::rest_is_offset)
       .def_property_readonly("rest_vertices", &Deformer::rest_vertices, py::return_value_policy::copy)
       .def_property_readonly("has_parts", &Deformer::has_parts)
       .def_property_readonly("n_parts", &Deformer::n_parts)

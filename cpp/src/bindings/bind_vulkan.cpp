@@ -84,6 +84,15 @@ void bind_vulkan(py::module_& m) {
           py::arg("vertices"),
           "Moves the rest mesh (V, 3): embedded and sorted by cell on the device (see "
           "vpffd::vulkan::VulkanDeformer::set_rest_vertices).")
+      .def(
+          "set_rest_offsets",
+          [](VulkanDeformer& d, RefV offsets) {
+            py::gil_scoped_release release;
+            d.set_rest_offsets(offsets);
+          },
+          py::arg("offsets"),
+          "Moves each part (the whole mesh without parts) by its row of offsets (K, 3) from the base "
+          "positions: only the offsets go to the device (see vpffd::vulkan::VulkanDeformer::set_rest_offsets).")
       .def_property_readonly(
           "rest_vertices", [](const VulkanDeformer& d) { return RowMatrixX3d(d.rest_vertices()); },
           "(V, 3) the current rest vertices (a copy).")

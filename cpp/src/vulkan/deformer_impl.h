@@ -143,7 +143,7 @@ struct VulkanDeformer::Impl {
   // for the deformer's life (the construction's cell order): faces and adjacency
   // never change; a move re-embeds and re-sorts the slots on the device.
   std::vector<std::int32_t> slot;
-  RowMatrixX3d rest;         // input order, world units
+  mutable RowMatrixX3d rest;  // input order, world units (stale after set_rest_offsets: rest_positions())
   RowMatrixX3d spare_rest;   // stage_rest's copy of the next rest positions (swapped in on success)
   // The rest volume (cone volume from the origin, as Deformer::rest_volume(true)) and,
   // with parts, each part's (the default targets): summed from `rest` on first use.
@@ -153,7 +153,22 @@ struct VulkanDeformer::Impl {
   std::mutex cpu_mutex;
   std::uint32_t sort_blocks = 1, sort_passes = 2;
   VkCommandBuffer embed_cb = VK_NULL_HANDLE;  // upload of up_rest and the device embedding
+  // set_rest_offsets' (rest_embedding.cpp): upload of up_offsets and the embedding of the
+  // base positions (rest[] on the device) plus each part's offset.
+  VkCommandBuffer offset_cb = VK_NULL_HANDLE;
   bool embed_pending = false;  // a move's embed_cb waits for the next submission (rest_embedding.cpp)
+  bool offsets_pending = false;  // ... and it is offset_cb
+  // set_rest_offsets' state on the host. base: the positions the offsets move from (those
+  // of construction or of the last set_rest_vertices; empty before the first offset move),
+  // base_box: each part's bounding box in them (K x 6: low x y z, high x y z), offsets: the
+  // last move's (K x 3). `rest` becomes base + offsets when first read (rest_positions()).
+  RowMatrixX3d base;
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> base_box;
+  RowMatrixX3d offsets;
+  mutable bool rest_stale = false;  // `rest` is older than base + offsets
+  mutable std::mutex rest_mutex;
+  bool volumes_of_base = false;     // rest_vols are the base's (translations keep them)
+  Index offsets_at = 0;             // the first offset's real in rest[] (layout.h)
 
   // The device buffers, by their binding numbers (shaders/layout.h).
   enum Buf {
@@ -170,6 +185,7 @@ struct VulkanDeformer::Impl {
   Buffer buf[kNumBuf];
   Buffer up_P, up_invw, up_frame, up_delta, up_cons_i, up_cons_d, rb_delta, rb_stats, rb_red, rb_X, rb_N;
   Buffer up_rest;  // staging of the rest positions (3V reals)
+  Buffer up_offsets;  // staging of set_rest_offsets' translations (3K reals)
   bool normals_ready = false;  // the rest normals are on the device (a submission ran)
   // The vertices before the frame now running: a frame whose failure is only known
   // after it ran (see deform) puts them back, so a failed frame never becomes visible.
@@ -293,8 +309,10 @@ struct VulkanDeformer::Impl {
   void forget_recordings() {
     for (Recorded& r : recorded) vkFreeCommandBuffers(d, cmd_pool.get(), 1, &r.cb);
     recorded.clear();
-    if (embed_cb) vkFreeCommandBuffers(d, cmd_pool.get(), 1, &embed_cb);
-    embed_cb = VK_NULL_HANDLE;  // recorded again by the next embed_rest
+    for (VkCommandBuffer* cb : {&embed_cb, &offset_cb}) {
+      if (*cb) vkFreeCommandBuffers(d, cmd_pool.get(), 1, cb);
+      *cb = VK_NULL_HANDLE;  // recorded again when a move needs it
+    }
   }
 
   // Device buffer i (and its upload buffer, when given) hold at least `bytes`.
@@ -316,15 +334,26 @@ struct VulkanDeformer::Impl {
   void build(const std::string& selector, Precision wanted);
   // rest_embedding.cpp
   void stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where);
-  void record_embedding();
+  // Throws the CPU's message for the rest positions X that stage_rest refused.
+  void refuse_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) const;
+  // embed_cb, or with `offsets` offset_cb.
+  void record_embedding(bool offsets = false);
   // Stages X and its rest volume; the device embedding runs now, or with the next
   // frame when `defer` (embed_pending).
   void embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where, bool defer);
-  // embed_cb, re-recorded after a rebinding (forget_recordings), when a move waits for it.
+  // set_rest_offsets: checks O (K x 3) against the base's part boxes, stages it; the
+  // device embedding runs with the next frame.
+  void offset_rest(const Eigen::Ref<const RowMatrixX3d>& O, const char* where);
+  // The positions base + offsets of `part` rows (or all, without parts).
+  RowMatrixX3d offset_positions(const Eigen::Ref<const RowMatrixX3d>& O) const;
+  // The current rest positions: `rest`, made base + offsets first if a move left it stale.
+  const RowMatrixX3d& rest_positions() const;
+  // The waiting move's command buffer, re-recorded after a rebinding (forget_recordings).
   VkCommandBuffer pending_embedding() {
     if (!embed_pending) return VK_NULL_HANDLE;
-    if (!embed_cb) record_embedding();
-    return embed_cb;
+    VkCommandBuffer& cb = offsets_pending ? offset_cb : embed_cb;
+    if (!cb) record_embedding(offsets_pending);
+    return cb;
   }
   // A waiting move's embedding submitted alone (before anything reads the device
   // outside a frame).
@@ -342,7 +371,7 @@ struct VulkanDeformer::Impl {
                                 0, where);
   }
   const RestVolumes& rest_volumes() const {
-    return rest_vols.get([&] { return measure_rest(rest, "rest_volume"); });
+    return rest_vols.get([&] { return measure_rest(volumes_of_base ? base : rest_positions(), "rest_volume"); });
   }
   const CorrectionOptions& plan_options(const CorrectionOptions& opt, CorrectionOptions& storage) const;
   void create_pipelines(const std::array<std::int32_t, 16>& spec);

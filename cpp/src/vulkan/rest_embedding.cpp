@@ -67,22 +67,26 @@
 
 namespace vpffd::vulkan {
 
-void VulkanDeformer::Impl::record_embedding() {
-  embed_cb = detail::allocate_command_buffer(d, cmd_pool.get());
-  const VkCommandBuffer cb = embed_cb;
+void VulkanDeformer::Impl::record_embedding(bool offsets) {
+  VkCommandBuffer& slot_cb = offsets ? offset_cb : embed_cb;
+  slot_cb = detail::allocate_command_buffer(d, cmd_pool.get());
+  const VkCommandBuffer cb = slot_cb;
   begin(cb, false);
   if (dev->timestamps) {
     vkCmdResetQueryPool(cb, queries.get(), kMoveQuery, 2);
     vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries.get(), kMoveQuery);
   }
   barrier(cb);
-  copy(cb, up_rest, buf[bRest], 24 * nv);
+  if (offsets)
+    copy(cb, up_offsets, buf[bRest], 24 * VkDeviceSize(K), 0, 8 * VkDeviceSize(offsets_at));
+  else
+    copy(cb, up_rest, buf[bRest], 24 * nv);
   vkCmdFillBuffer(cb, buf[bSort].handle(), 16 * nv, 8 * NE * K, 0);  // keys without vertices: empty ranges
   vkCmdFillBuffer(cb, buf[bTiles].handle(), 0, VK_WHOLE_SIZE, 0);  // tiles past the real ones: empty
   barrier(cb);
   vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
   Push pc;
-  pc.flags = cpu->outside_policy() == OutsidePolicy::Error ? EM_CLAMP : 0;
+  pc.flags = (cpu->outside_policy() == OutsidePolicy::Error ? EM_CLAMP : 0) | (offsets ? EM_OFFSET : 0);
   dispatch(cb, kEmbed, g_vert, pc);
   for (std::uint32_t pass = 0; pass < sort_passes; ++pass) {
     Push s;
@@ -216,33 +220,37 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     stage(std::true_type{});
   else
     stage(std::false_type{});
-  if (bad) {
-    // The CPU's own checks give the message (first vertex in the caller's order).
-    require_finite_rows(X, where);
-    try {
-      embed(L, X, cpu->outside_policy());
-    } catch (const InvalidInputError& e) {
-      throw InvalidInputError(std::string(where) + ": " + e.what());
-    }
-    throw InvalidInputError(std::string(where) + ": a vertex lies outside the lattice box");  // not reached
+  if (bad || far) refuse_rest(X, where);
+}
+
+void VulkanDeformer::Impl::refuse_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) const {
+  const Lattice& L = cpu->lattice();
+  // The CPU's own checks give the message (first vertex in the caller's order).
+  require_finite_rows(X, where);
+  try {
+    embed(L, X, cpu->outside_policy());
+  } catch (const InvalidInputError& e) {
+    throw InvalidInputError(std::string(where) + ": " + e.what() + cpu->parts_outside(X));
   }
-  if (far)
-    for (Index v = 0; v < nv; ++v)
-      for (int a = 0; a < 3; ++a)
-        VPFFD_CHECK(std::abs(X(v, a) - c.centre[a]) <= c.far[a], where, ": vertex ", v, " lies ",
-                    std::abs(X(v, a) - c.centre[a]) / (L.box_max[a] - L.box_min[a]),
-                    " box extents away along periodic axis ", "xyz"[a],
-                    "; the Vulkan backend wraps positions up to 2^24 extents away (its float32 positions keep "
-                    "nothing of the place in the box beyond); move the mesh back by whole extents");
+  for (Index v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a) {
+      if (!L.periodic(a)) continue;
+      const double centre = 0.5 * (L.box_min[a] + L.box_max[a]), extent = L.box_max[a] - L.box_min[a];
+      VPFFD_CHECK(std::abs(X(v, a) - centre) <= std::ldexp(1.0, 24) * extent, where, ": vertex ", v, " lies ",
+                  std::abs(X(v, a) - centre) / extent, " box extents away along periodic axis ", "xyz"[a],
+                  "; the Vulkan backend wraps positions up to 2^24 extents away (its float32 positions keep "
+                  "nothing of the place in the box beyond); move the mesh back by whole extents");
+    }
 }
 
 void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where, bool defer) {
+  // stage_rest fills up_rest as it tests: a move of positions that waits for the next
+  // frame must find its own there again (an offset move reads the device's rest[]).
+  const bool restage = embed_pending && !offsets_pending;
   try {
     stage_rest(X, where);  // throws before anything but up_rest changes
   } catch (...) {
-    // stage_rest fills up_rest as it tests: a move that waits for the next frame
-    // must find its own positions there again.
-    if (embed_pending) stage_rest(rest, where);
+    if (restage) stage_rest(rest, where);
     throw;
   }
   // The rest volumes wait for their first use, as the CPU Deformer's (frame/rest_volume.h):
@@ -254,21 +262,141 @@ void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
     try {
       vols = measure_rest(X, where);
     } catch (...) {
-      if (embed_pending) stage_rest(rest, where);  // as above: the waiting move's positions again
+      if (restage) stage_rest(rest, where);  // as above: the waiting move's positions again
       throw;
     }
   }
   embed_pending = true;
+  offsets_pending = false;
   if (!defer) flush_embedding();
-  rest.swap(spare_rest);  // the positions stage_rest copied (spare_rest keeps the old buffer)
+  {
+    std::lock_guard<std::mutex> lock(rest_mutex);
+    rest.swap(spare_rest);  // the positions stage_rest copied (spare_rest keeps the old buffer)
+    rest_stale = false;
+  }
+  base.resize(0, 3);  // later offsets move from X
+  volumes_of_base = false;
   rest_vols.reset(std::move(vols), eager);
   normals_ready = false;  // the rest normals are of the old positions
+}
+
+RowMatrixX3d VulkanDeformer::Impl::offset_positions(const Eigen::Ref<const RowMatrixX3d>& O) const {
+  const std::int32_t* part = K > 1 ? cpu->parts().vertex_part.data() : nullptr;
+  RowMatrixX3d X(nv, 3);
+  parallel_range(nv, 0, [&](Index b, Index e) {
+    for (Index v = b; v < e; ++v) {
+      const Index k = part ? Index(part[v]) : 0;
+      for (int a = 0; a < 3; ++a) X(v, a) = base(v, a) + O(k, a);  // the CPU Deformer's sum
+    }
+  });
+  return X;
+}
+
+const RowMatrixX3d& VulkanDeformer::Impl::rest_positions() const {
+  std::lock_guard<std::mutex> lock(rest_mutex);
+  if (rest_stale) {
+    rest = offset_positions(offsets);
+    rest_stale = false;
+  }
+  return rest;
+}
+
+void VulkanDeformer::Impl::offset_rest(const Eigen::Ref<const RowMatrixX3d>& O, const char* where) {
+  const Deformer& c = *cpu;  // its lattice, parts, edges and policy: what no move changes
+  VPFFD_CHECK(O.rows() == K, where, ": ", O.rows(), " offsets, expected one per part (", K,
+              c.has_parts() ? " parts)" : ": the deformer has no parts, so one for the whole mesh)");
+  for (Index k = 0; k < O.rows(); ++k)
+    VPFFD_CHECK(O.row(k).allFinite(), where, ": offset ", k, " (", O(k, 0), ", ", O(k, 1), ", ", O(k, 2),
+                ") is not finite");
+  const bool first = base.rows() == 0;
+  if (first) {
+    base = rest_positions();
+    // Each part's box: base + o rounds monotonically in the base coordinate, so the
+    // moved box's corners are the extremes of the moved vertices, and every test of a
+    // move (stage_rest's, all intervals in each coordinate) holds for all vertices iff
+    // it holds for the corners.
+    base_box.resize(K, 6);
+    for (int k = 0; k < K; ++k)
+      for (int a = 0; a < 3; ++a) {
+        base_box(k, a) = std::numeric_limits<double>::infinity();
+        base_box(k, 3 + a) = -std::numeric_limits<double>::infinity();
+      }
+    const std::int32_t* part = K > 1 ? c.parts().vertex_part.data() : nullptr;
+    for (Index v = 0; v < nv; ++v) {
+      const Index k = part ? Index(part[v]) : 0;
+      for (int a = 0; a < 3; ++a) {
+        base_box(k, a) = std::min(base_box(k, a), base(v, a));
+        base_box(k, 3 + a) = std::max(base_box(k, 3 + a), base(v, a));
+      }
+    }
+  }
+  // stage_rest's tests of the two corners of every part that has vertices.
+  const Lattice& L = c.lattice();
+  const bool refuse_outside = c.outside_policy() == OutsidePolicy::Error;
+  const ParameterMap to_parameter(L);
+  bool ok = true;
+  for (int k = 0; k < K && ok; ++k) {
+    if (!(base_box(k, 0) <= base_box(k, 3))) continue;  // a part without vertices
+    for (int a = 0; a < 3; ++a)
+      for (int corner = 0; corner < 2; ++corner) {
+        const double x = base_box(k, 3 * corner + a) + O(k, a);
+        if (L.periodic(a)) {
+          // Wrapped into the box (always inside); the device's far limit.
+          const double centre = 0.5 * (L.box_min[a] + L.box_max[a]);
+          ok &= std::isfinite(x) && std::abs(x - centre) <= std::ldexp(1.0, 24) * (L.box_max[a] - L.box_min[a]);
+          continue;
+        }
+        const double w = L.domain_hi(a) - L.domain_lo(a);
+        const double u = to_parameter.lo[a] + (x - to_parameter.box_min[a]) * to_parameter.k[a];
+        const double tol = 1e-12 * (L.box_max[a] - L.box_min[a]);
+        ok &= u >= L.domain_lo(a) - 1e3 * w && u <= L.domain_hi(a) + 1e3 * w;
+        if (refuse_outside) ok &= x >= L.box_min[a] - tol && x <= L.box_max[a] + tol;
+      }
+  }
+  if (!ok) {
+    RowMatrixX3d X = offset_positions(O);
+    refuse_rest(X, where);
+    if (first) base.resize(0, 3);
+    throw InvalidInputError(std::string(where) + ": a vertex moves outside the lattice box");  // not reached
+  }
+  // Nothing below throws but Vulkan calls.
+  const bool keep_volumes = K > 1 || c.is_closed();
+  RestVolumes vols;
+  bool eager = false;
+  if (!keep_volumes) {
+    // An open mesh's cone volume from the origin changes with a translation.
+    RowMatrixX3d X = offset_positions(O);
+    eager = !rest_volume_stays_finite(L, nf, X);
+    if (eager) vols = measure_rest(X, where);
+  }
+  // A move of positions that still waits for its embedding has not reached rest[] on the
+  // device: it runs first, alone (an offset move after set_rest_vertices, no frame between).
+  if (embed_pending && !offsets_pending) flush_embedding();
+  std::vector<double> o(3 * size_t(K));
+  for (int k = 0; k < K; ++k)
+    for (int a = 0; a < 3; ++a) o[3 * k + a] = O(k, a) / scale;  // scale: a power of two
+  put_reals(up_offsets.mapped(), o.data(), o.size(), ff);
+  embed_pending = true;
+  offsets_pending = true;
+  {
+    std::lock_guard<std::mutex> lock(rest_mutex);
+    offsets = O;
+    rest_stale = true;
+  }
+  if (keep_volumes) {
+    // The base's volumes: rest_vols are already theirs (the base was the rest mesh).
+    volumes_of_base = true;
+  } else {
+    rest_vols.reset(std::move(vols), eager);
+    volumes_of_base = false;
+  }
+  // Rest normals are unchanged by a translation (rest_normals.comp reads the base).
 }
 
 const Deformer& VulkanDeformer::Impl::synced_cpu() {
   std::lock_guard<std::mutex> lock(cpu_mutex);
   if (cpu_stale) {
-    cpu->set_rest_vertices(rest);
+    cpu->set_rest_vertices(rest_positions());
     cpu_stale = false;
   }
   return *cpu;
@@ -280,7 +408,7 @@ const CorrectionOptions& VulkanDeformer::Impl::plan_options(const CorrectionOpti
   storage = opt;
   for (PointConstraint& c : storage.constraints)
     if (c.vertex >= 0 && c.vertex < nv) {
-      c.point = rest.row(c.vertex).transpose();
+      c.point = rest_positions().row(c.vertex).transpose();
       c.vertex = -1;
     }
   return storage;
@@ -297,7 +425,16 @@ void VulkanDeformer::set_rest_vertices(const Eigen::Ref<const RowMatrixX3d>& X) 
   m.cpu_stale = true;
 }
 
-const RowMatrixX3d& VulkanDeformer::rest_vertices() const { return impl_->rest; }
+void VulkanDeformer::set_rest_offsets(const Eigen::Ref<const RowMatrixX3d>& offsets) {
+  Impl& m = *impl_;
+  std::lock_guard<std::mutex> lock(m.frame_mutex);
+  m.offset_rest(offsets, "set_rest_offsets");
+  m.moved = true;
+  std::lock_guard<std::mutex> cpu_lock(m.cpu_mutex);
+  m.cpu_stale = true;
+}
+
+const RowMatrixX3d& VulkanDeformer::rest_vertices() const { return impl_->rest_positions(); }
 
 double VulkanDeformer::rest_volume(bool allow_open) const {
   if (!allow_open) require_closed(impl_->cpu->edges(), "rest_volume");

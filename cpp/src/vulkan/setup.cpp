@@ -136,6 +136,9 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
                 L.knots[a].size(), " entries, expected ", dims[a] + T.order[a]);
     em.insert(em.end(), L.knots[a].begin(), L.knots[a].end());
   }
+  // set_rest_offsets' translations go behind the knots (zero until its first move).
+  offsets_at = 3 * nv + Index(em.size());
+  em.resize(em.size() + 3 * size_t(K), 0.0);
   std::vector<double> em_dev(em.size());
   put_reals(em_dev.data(), em.data(), em.size(), ff);
 
@@ -178,6 +181,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   mk(bSlotVertex, 4 * size_t(nv), "slot vertices");
   mk(bSort, 4 * (4 * nv + 2 * n_keys), "cell sort");
   up_rest = B(*dev, 24 * nv, B::Upload, "rest positions (upload)");
+  up_offsets = B(*dev, 24 * size_t(K), B::Upload, "rest offsets (upload)");
   mk(bAlpha, 8 * size_t(K) * N, "coefficients");
   mk(bInvW, 8 * N, "inverse weights");
   mk(bDelta, 32 * N, "offsets");

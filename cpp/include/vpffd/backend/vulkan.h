@@ -179,6 +179,20 @@ class VulkanDeformer {
   ///         device's float32 positions keep nothing of their place in the box there);
   ///         the deformer is unchanged then. DeviceError when a Vulkan call fails.
   void set_rest_vertices(const Eigen::Ref<const RowMatrixX3d>& X);
+  /// Moves the rest mesh by translations, as Deformer::set_rest_offsets: part k's
+  /// vertices (the whole mesh's without parts) to their base positions (those of
+  /// construction or of the last set_rest_vertices) plus row k of `offsets`. Only
+  /// the K offsets go to the device, which adds them to the base positions it keeps
+  /// (in its reals: within a real's rounding of the host's float64 sum), embeds and
+  /// sorts, first thing in the next frame's submission. The host's work is O(K): the
+  /// checks test each part's bounding box (the same refusals as set_rest_vertices,
+  /// with its messages), the rest volumes stay the base's (closed mesh or parts), and
+  /// rest_vertices() is the float64 sum, made when first read.
+  /// @param[in] offsets  K x 3 translations, world units (K = the number of parts, 1 without)
+  /// @throws InvalidInputError for a wrong shape, non-finite offsets, or vertices moved
+  ///         outside the box (unless OutsidePolicy::Extrapolate); the deformer is
+  ///         unchanged then. DeviceError when a Vulkan call fails.
+  void set_rest_offsets(const Eigen::Ref<const RowMatrixX3d>& offsets);
   /// The current rest vertices (#V x 3, input order).
   const RowMatrixX3d& rest_vertices() const;
   /// Enclosed volume of the current rest mesh, as Deformer::rest_volume.

@@ -76,8 +76,8 @@ class Deformer {
 
   /// Moves the rest mesh to X (same faces): the next frame deforms X as a Deformer
   /// built on it would (same embedding, processing order, rest volumes; the same
-  /// results bit for bit). The faces, their checks and the parts are kept. The rest
-  /// volumes are summed on first use (frame/rest_volume.h). Not to be called while a
+  /// results bit for bit). The faces, their checks and the parts are kept, and X
+  /// becomes the base of later set_rest_offsets. The rest volumes are summed on first use (frame/rest_volume.h). Not to be called while a
   /// frame runs on this Deformer.
   /// @param[in] X  #V x 3 new rest vertices
   /// @throws InvalidInputError for a wrong shape, non-finite coordinates, or vertices
@@ -88,12 +88,91 @@ class Deformer {
                 " (the faces stay; give every vertex a new position)");
     try {
       embed_rest(X, threads, "set_rest_vertices");
+      base_.resize(0, 3);  // later offsets move from X
     } catch (const InvalidInputError&) {
       // The embedding refuses non-finite coordinates (with points too far away) in the
       // pass it makes anyway; only a refused move looks for them, to name them as such.
       require_finite_rows(X, "set_rest_vertices");
       throw;
     }
+  }
+
+  /// Moves the rest mesh by translations: every vertex of part k (of the whole mesh
+  /// without parts) to its base position plus row k of `offsets`. The base is the rest
+  /// mesh of construction or of the last set_rest_vertices, never an earlier offset
+  /// move: offsets do not accumulate. The paper's per-frame input (001 §2.3: an object's
+  /// rest positions x + o(t)): the next frame deforms what set_rest_vertices(base +
+  /// offsets) would give, with the same embedding, processing order and frames bit for
+  /// bit, but for the rest volumes: a translation leaves a closed surface's enclosed
+  /// volume unchanged, so those of the base are kept (summed once, on first use, not
+  /// after every move; the moved positions' own sum would differ from them by rounding
+  /// only). An open mesh without parts (allow_open frames: cone volumes from origin(),
+  /// which a translation changes) sums its moved positions as set_rest_vertices does.
+  /// @param[in] offsets  n_parts() x 3 translations, in the parts' order (part_labels)
+  /// @throws InvalidInputError for a wrong shape, non-finite offsets, or vertices moved
+  ///         outside the lattice box (unless built with OutsidePolicy::Extrapolate); the
+  ///         Deformer is unchanged then.
+  void set_rest_offsets(const Eigen::Ref<const RowMatrixX3d>& offsets, int threads = 0) {
+    VPFFD_CHECK(offsets.rows() == n_parts(), "set_rest_offsets: ", offsets.rows(), " offsets, expected one per part (",
+                n_parts(), has_parts_ ? " parts)" : ": the Deformer has no parts, so one for the whole mesh)");
+    for (Index k = 0; k < offsets.rows(); ++k)
+      VPFFD_CHECK(offsets.row(k).allFinite(), "set_rest_offsets: offset ", k, " (", offsets(k, 0), ", ",
+                  offsets(k, 1), ", ", offsets(k, 2), ") is not finite");
+    const bool first = base_.rows() == 0;
+    if (first) base_ = V_;  // V_'s rest volumes (known or not) are then the base's too
+    RowMatrixX3d& X = spare_rest_;
+    X.resize(n_vertices(), 3);
+    const std::int32_t* part = has_parts_ ? parts_.vertex_part.data() : nullptr;
+    parallel_range(n_vertices(), threads, [&](Index b, Index e) {
+      for (Index v = b; v < e; ++v) {
+        const Index k = part ? Index(part[v]) : 0;
+        for (int a = 0; a < 3; ++a) X(v, a) = base_(v, a) + offsets(k, a);
+      }
+    });
+    // Each part is closed (require_closed_parts), or the whole mesh is: translations
+    // keep every volume.
+    const bool keep_volumes = has_parts_ || is_closed();
+    try {
+      embed_rest(X, threads, "set_rest_offsets", keep_volumes ? &base_ : nullptr, /*adopt=*/true);
+    } catch (...) {
+      if (first) base_.resize(0, 3);
+      throw;
+    }
+  }
+
+  /// Whether the rest mesh is its base moved by set_rest_offsets (base_vertices()).
+  bool rest_is_offset() const { return base_.rows() != 0; }
+  /// The positions set_rest_offsets moves from (empty before the first such move).
+  const RowMatrixX3d& base_vertices() const { return base_; }
+
+  /// With parts: which of them have vertices outside the lattice box (the test of
+  /// embed()), to name them in its error, e.g. an object that swam out of the lattice
+  /// ("" when none is, or without parts; also the Vulkan backend's messages).
+  std::string parts_outside(const Eigen::Ref<const RowMatrixX3d>& V) const {
+    if (!has_parts_ || policy_ != OutsidePolicy::Error || V.rows() != Index(parts_.vertex_part.size())) return {};
+    std::vector<Index> out(parts_.count, 0), size(parts_.count, 0);
+    const bool periodic = lattice_.any_periodic();
+    for (Index v = 0; v < V.rows(); ++v) {
+      const int k = parts_.vertex_part[v];
+      ++size[k];
+      const Vector3d x = periodic ? wrap_point(lattice_, V.row(v).transpose()) : Vector3d(V.row(v).transpose());
+      bool outside = !x.allFinite();
+      for (int a = 0; a < 3; ++a) {
+        const double tol = 1e-12 * (lattice_.box_max[a] - lattice_.box_min[a]);
+        outside |= x[a] < lattice_.box_min[a] - tol || x[a] > lattice_.box_max[a] + tol;
+      }
+      out[k] += outside;
+    }
+    std::string named;
+    int n = 0;
+    for (int k = 0; k < parts_.count; ++k) {
+      if (out[k] == 0) continue;
+      if (n++ < 8)
+        named += detail::concat(n > 1 ? ", " : "", "part ", k, " (label ", parts_.labels[k], "): ", out[k], " of its ",
+                                size[k], " vertices");
+    }
+    if (n == 0) return {};
+    return detail::concat("; parts outside: ", named, n > 8 ? detail::concat(" and ", n - 8, " more") : "");
   }
 
   Deformer(const Deformer&) = delete;
@@ -196,10 +275,12 @@ class Deformer {
   /// (about 190 bytes for a closed mesh, F = 2V, with the lists; 28 less without;
   /// ~100 more where all vertices are in short runs); 40 more once the rest
   /// mesh has moved (the next move's buffers: embedding 36, cells 4), and 4 while the
-  /// adjacency waits to be relabelled after moves (the order it is in).
+  /// adjacency waits to be relabelled after moves (the order it is in); 48 more after
+  /// set_rest_offsets (the base positions and the buffer of the moved ones).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
-    double bytes = double(V_.size()) * sizeof(double) + double(F_.size() + Fp_.size()) * per_int;
+    double bytes = double(V_.size() + base_.size() + spare_rest_.size()) * sizeof(double) +
+                   double(F_.size() + Fp_.size()) * per_int;
     {
       std::lock_guard<std::mutex> lock(faces_mutex_);
       bytes += double(Fs_.size()) * per_int;
@@ -341,7 +422,7 @@ class Deformer {
   }
   /// Those of V_, summed on first use.
   const RestVolumes& rest_volumes() const {
-    return rest_volumes_.get([&] { return measure_rest(V_, 0, "rest_volume"); });
+    return rest_volumes_.get([&] { return measure_rest(volumes_of_base_ ? base_ : V_, 0, "rest_volume"); });
   }
 
   /// Everything that depends on the rest positions, from V: embedding, processing
@@ -349,7 +430,11 @@ class Deformer {
   /// read waits for them: the renumbered faces (processing_faces), the fans or rings
   /// in the new order (sync_adjacency) and the rest volumes (rest_volumes). Computed
   /// aside and then swapped in, so a throw leaves the Deformer as it was.
-  void embed_rest(const Eigen::Ref<const RowMatrixX3d>& V, int threads, const char* where) {
+  /// `volume_base` (set_rest_offsets): V is this mesh translated part by part, whose
+  /// rest volumes rest_volumes_ already holds (or sums on first use): they are kept.
+  /// `adopt`: V is spare_rest_, swapped into V_ instead of copied.
+  void embed_rest(const Eigen::Ref<const RowMatrixX3d>& V, int threads, const char* where,
+                  const RowMatrixX3d* volume_base = nullptr, bool adopt = false) {
     const Index nv = V.rows();
     const bool moving = !order_.empty();
     // First only each vertex's cell, reading V in its own order (this pass checks V:
@@ -366,13 +451,19 @@ class Deformer {
     }
     // The rest volumes wait for their first use (frame/rest_volume.h), unless they
     // might overflow: then they are summed, and refused, here.
-    const bool eager = !rest_volume_stays_finite(lattice_, F_.rows(), V, threads);
+    // (Kept volumes passed this when their mesh was set.)
+    const bool eager = !volume_base && !rest_volume_stays_finite(lattice_, F_.rows(), V, threads);
     RestVolumes rest;
     if (eager) rest = measure_rest(V, threads, where);
     // Nothing below throws: the Deformer's state is replaced from here on.
-    V_.resize(nv, 3);
-    parallel_range(nv, threads, [&](Index b, Index e) { V_.middleRows(b, e - b) = V.middleRows(b, e - b); });
-    rest_volumes_.reset(std::move(rest), eager);
+    if (adopt) {
+      V_.swap(spare_rest_);  // the storage V views is V_'s now
+    } else {
+      V_.resize(nv, 3);
+      parallel_range(nv, threads, [&](Index b, Index e) { V_.middleRows(b, e - b) = V.middleRows(b, e - b); });
+    }
+    if (!volume_base) rest_volumes_.reset(std::move(rest), eager);
+    volumes_of_base_ = volume_base != nullptr;
     {
       std::lock_guard<std::mutex> lock(face_matrix_mutex_);
       face_matrix_.reset();  // built from the old embedding
@@ -497,34 +588,6 @@ class Deformer {
     for (Index i = 0; i < T.rows(); ++i) seam_shift_.row(i) = T.row(order_[i]);
   }
 
-  /// With parts: which of them have vertices outside the lattice box (the test of
-  /// embed()), to name them in its error, e.g. an object that swam out of the lattice.
-  std::string parts_outside(const Eigen::Ref<const RowMatrixX3d>& V) const {
-    if (!has_parts_ || policy_ != OutsidePolicy::Error || V.rows() != Index(parts_.vertex_part.size())) return {};
-    std::vector<Index> out(parts_.count, 0), size(parts_.count, 0);
-    const bool periodic = lattice_.any_periodic();
-    for (Index v = 0; v < V.rows(); ++v) {
-      const int k = parts_.vertex_part[v];
-      ++size[k];
-      const Vector3d x = periodic ? wrap_point(lattice_, V.row(v).transpose()) : Vector3d(V.row(v).transpose());
-      bool outside = !x.allFinite();
-      for (int a = 0; a < 3; ++a) {
-        const double tol = 1e-12 * (lattice_.box_max[a] - lattice_.box_min[a]);
-        outside |= x[a] < lattice_.box_min[a] - tol || x[a] > lattice_.box_max[a] + tol;
-      }
-      out[k] += outside;
-    }
-    std::string named;
-    int n = 0;
-    for (int k = 0; k < parts_.count; ++k) {
-      if (out[k] == 0) continue;
-      if (n++ < 8)
-        named += detail::concat(n > 1 ? ", " : "", "part ", k, " (label ", parts_.labels[k], "): ", out[k], " of its ",
-                                size[k], " vertices");
-    }
-    if (n == 0) return {};
-    return detail::concat("; parts outside: ", named, n > 8 ? detail::concat(" and ", n - 8, " more") : "");
-  }
 
   void check_control_points(const Eigen::Ref<const RowMatrixX3d>& P, const char* where) const {
     VPFFD_CHECK(P.rows() == n_control_points(), where, ": ", P.rows(), " control points, the lattice has ",
@@ -755,7 +818,10 @@ class Deformer {
   mutable std::vector<std::int32_t> adjacency_order_;
   mutable std::mutex adjacency_sync_mutex_;
   Vector3d origin_;
-  LazyRestVolumes rest_volumes_;     ///< of V_ (rest_volumes())
+  LazyRestVolumes rest_volumes_;     ///< of V_, or of base_ when volumes_of_base_ (rest_volumes())
+  RowMatrixX3d base_;                ///< set_rest_offsets' base positions (empty before its first move)
+  RowMatrixX3d spare_rest_;          ///< set_rest_offsets' buffer for the moved positions
+  bool volumes_of_base_ = false;     ///< the rest volumes are base_'s (a translation of V_)
   bool has_parts_ = false;
   MeshParts parts_;                  ///< count 1 and no labels without parts
   std::vector<Index> part_start_;    ///< K + 1: each part's vertices in processing order

@@ -10,6 +10,10 @@
 // host embedded; where u lies within a real's rounding of a knot the span may be the
 // neighbour of the CPU's, which gives the same point (the spline is continuous there).
 // Also writes X = the rest positions: the device vertices before any frame.
+// With EM_OFFSET (set_rest_offsets) a slot's position is its base position in rest[]
+// plus its part's translation, stored after the knots: only K translations travel per
+// move, and the sum is rounded once in reals (the host's base + offset in float64
+// differs from it by a real's rounding).
 // On periodic axes the position is first wrapped into the box (wrap below); the
 // spans and parameters are those of the wrapped position, `seam` keeps what the
 // wrap did (ffd.comp adds the translation, normals.comp applies the mirror).
@@ -78,11 +82,15 @@ void wrap(inout real y[3], out vec4 moved) {
 void main() {
   const uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
   const bool clamp_u = (pc.flags & EM_CLAMP) != 0;
+  const bool offset = (pc.flags & EM_OFFSET) != 0;
+  const int offsets_at = knots_at(2) + NW + KW;  // after the three knot vectors
   for (uint v = gl_GlobalInvocationID.x; v < uint(NVERT); v += stride) {
     real y[3];
     const int p = 3 * slot_vertex[v];
+    const int part = NPART > 1 ? parts[PT_SLOT + v] : 0;
     for (int a = 0; a < 3; ++a) {
       y[a] = rest[p + a];
+      if (offset) y[a] = r_add(y[a], rest[offsets_at + 3 * part + a]);
       X[3 * v + a] = r_to_float(y[a]);
     }
     if (SEAMS != 0) {
@@ -108,7 +116,6 @@ void main() {
     }
     // The sort key: the cell, after the part (the most significant digits: each part's
     // slots become one range of sorted positions, as the CPU's part_start).
-    const int part = NPART > 1 ? parts[PT_SLOT + v] : 0;
     sorted[2 * v] = part * NCP + (first[0] * NV + first[1]) * NW + first[2];
     sorted[2 * v + 1] = int(v);
   }

@@ -68,7 +68,8 @@ const int CI_BASE = 8;        // nc first control point indices; cons_d starts w
 // rest[]: reals after the 3V positions: the parameter map u = EM_U0[a] + y EM_DU[a] per
 // axis (y in device units); the box per axis (device units): its low and high faces, its
 // extent and lo + hi (a twist seam's mirror: y -> EM_MID - y); then the knot vectors of
-// the three axes (dims + order each).
+// the three axes (dims + order each); then 3 K reals, the translation of each part's
+// rest positions (device units) that embed.comp adds with EM_OFFSET (set_rest_offsets).
 const int EM_U0 = 0;
 const int EM_DU = 3;
 const int EM_LO = 6;
@@ -83,6 +84,8 @@ const int SEAM_CLOSED = 2;
 const int SEAM_TWIST = 3;
 // Push flags of embed.comp: clamp the parameter into the domain (outside = error).
 const int EM_CLAMP = 1;
+// and add each part's translation (after the knots in rest[]) to its slots' positions.
+const int EM_OFFSET = 2;
 // parts[]: ints (binding VPFFD_B_PARTS, with NPART > 1): the K + 1 face offsets of the
 // parts (the faces are grouped by part), then the part of every vertex slot.
 const int PT_FACE_START = 0;
