@@ -17,8 +17,10 @@ Scenes (meshes generated in code, the paper's counts):
   * sphere: 163,842 vertices (icosphere(7)) drifting diagonally through an 8x8x8 cubic
     lattice under a twist: a larger mesh than the paper's, where the cost of moving
     the rest mesh against a frame is measured (issue 13: far below a frame).
-Per scene and backend: the median over ``--frames`` frames of moving the rest mesh
-(``set_rest_vertices``), of the frame (``deform``, plain and with every object's
+Per scene, backend and kind of move: the median over ``--frames`` frames of moving the
+rest mesh (``set_rest_vertices`` with the moved positions, or ``set_rest_offsets`` with
+the path's offset: on Vulkan only the offsets travel, and the rest volumes stay those of
+construction), of the frame (``deform``, plain and with every object's
 volume kept, ``parts="components"``), the fps of both together,
 and the move's cost as a fraction of each frame. On Vulkan a move's device work
 (embedding, cell sort, tiles) runs first in the next frame's submission: its
@@ -86,7 +88,10 @@ Mesh = vpffd.Mesh
 SCENES = {"whales": whales, "ants": ants, "car": car, "car-open": car_open, "sphere": sphere}
 
 
-def measure(mesh, lat, P, path, backend, threads, frames, preserve):
+def measure(mesh, lat, P, path, backend, threads, frames, preserve, move="positions"):
+    """(move, frame, fps, device part, host part) medians in ms (fps: of both). `move`:
+    "positions" (set_rest_vertices(X + o(t))) or "offsets" (set_rest_offsets(o(t)):
+    every object by the path's offset, from the rest mesh of construction)."""
     # Every object keeps its own volume, on every backend.
     kw = dict(backend=backend)
     if backend != "vulkan":
@@ -95,15 +100,22 @@ def measure(mesh, lat, P, path, backend, threads, frames, preserve):
         kw["parts"] = "components"
     d = vpffd.Deformer(mesh, lat, **kw)
     times = np.linspace(0.0, 4.0, frames + 1)
-    Xs = [path.positions(mesh.vertices, t) for t in times]
-    d.set_rest_vertices(Xs[0])
+    if move == "offsets":
+        inputs = [path.offset(t) for t in times]
+        set_rest = d.set_rest_offsets
+    elif move == "positions":
+        inputs = [path.positions(mesh.vertices, t) for t in times]
+        set_rest = d.set_rest_vertices
+    else:
+        raise ValueError(f"move: 'positions' or 'offsets', got {move!r}")
+    set_rest(inputs[0])
     d.deform(P, preserve_volume=preserve)  # warm-up
     if backend == "vulkan":
         run_for(lambda: d.deform(P, preserve_volume=preserve), 1.0)  # the GPU's clock up
     emb, frm, dev, host = [], [], [], []
-    for X in Xs[1:]:
+    for X in inputs[1:]:
         t0 = time.perf_counter()
-        d.set_rest_vertices(X)
+        set_rest(X)
         t1 = time.perf_counter()
         d.deform(P, preserve_volume=preserve)
         t2 = time.perf_counter()
@@ -123,6 +135,8 @@ def main():
     ap.add_argument("--scenes", nargs="*", default=list(SCENES), choices=list(SCENES))
     ap.add_argument("--backends", nargs="*", default=None, help="default: serial, openmp (1 and 2 threads), "
                     "and vulkan when available")
+    ap.add_argument("--moves", nargs="*", default=["positions", "offsets"], choices=["positions", "offsets"],
+                    help="how the rest mesh moves: set_rest_vertices (positions) and/or set_rest_offsets")
     ap.add_argument("--md", help="also write the table as Markdown to this file")
     a = ap.parse_args()
     avail = vpffd.available_backends()
@@ -140,21 +154,21 @@ def main():
     head = (f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
             f"load average at start {os.getloadavg()[0]:.2f}{dev}; {a.frames} frames, medians")
     print(head)
-    rows = ["| scene | vertices | backend | threads | move rest mesh (ms) | of which on the device | "
+    rows = ["| scene | vertices | backend | threads | moved by | move rest mesh (ms) | of which on the device | "
             "of which on the host | plain frame (ms) | plain fps | volume-kept frame (ms) | volume-kept fps | "
             "move / plain frame | move / volume-kept frame | host part / volume-kept frame |",
-            "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+            "|---|---:|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     # Every CPU row before the first Vulkan one: lavapipe's worker threads outlive its
     # frames and took CPU time from the 2-thread rows measured after them (a 163,842-vertex
     # volume-kept frame on 2 threads: 14.6 ms measured after Vulkan rows, 8.7 ms before).
     scenes = {name: SCENES[name]() for name in a.scenes}
     table = {}
     for b, th in runs:
-        for name in a.scenes:
+        for name, how in ((name, how) for name in a.scenes for how in a.moves):
             mesh, lat, P, path = scenes[name]
             try:
-                e, fp, fps_p, g, h = measure(mesh, lat, P, path, b, th, a.frames, False)
-                e2, fk, fps_k, g2, h2 = measure(mesh, lat, P, path, b, th, a.frames, True)
+                e, fp, fps_p, g, h = measure(mesh, lat, P, path, b, th, a.frames, False, how)
+                e2, fk, fps_k, g2, h2 = measure(mesh, lat, P, path, b, th, a.frames, True, how)
             except (vpffd.BackendUnavailableError, vpffd.InvalidInputError) as err:
                 print(f"{name} {b}: skipped ({err})")
                 continue
@@ -163,12 +177,13 @@ def main():
             # The host's part of a move (set_rest_vertices itself; on the CPU the whole move):
             # on Vulkan what a GPU cannot hide.
             on_host = np.median([h, h2])
-            row = (f"| {name} | {mesh.n_vertices:,} | {b} | {th or '-'} | {move:.2f} | {on_dev} | {on_host:.2f} | "
-                   f"{fp:.1f} | {fps_p:.1f} | {fk:.1f} | {fps_k:.1f} | {move / fp:.2f} | {move / fk:.2f} | "
-                   f"{on_host / fk:.2f} |")
-            table[name, b, th] = row
+            row = (f"| {name} | {mesh.n_vertices:,} | {b} | {th or '-'} | {how} | {move:.2f} | {on_dev} | "
+                   f"{on_host:.2f} | {fp:.1f} | {fps_p:.1f} | {fk:.1f} | {fps_k:.1f} | {move / fp:.2f} | "
+                   f"{move / fk:.2f} | {on_host / fk:.2f} |")
+            table[name, b, th, how] = row
             print(row, flush=True)
-    rows += [table[name, b, th] for name in a.scenes for b, th in runs if (name, b, th) in table]
+    rows += [table[key] for key in ((name, b, th, how) for name in a.scenes for b, th in runs for how in a.moves)
+             if key in table]
     print(f"load average at end {os.getloadavg()[0]:.2f}")
     if a.md:
         with open(a.md, "w") as fh:

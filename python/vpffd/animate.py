@@ -400,8 +400,10 @@ class PathOffset:
     (the whales circling a ring, ants walking a Moebius band, a car over terrain):
     rest positions X(t) = X + o(t), o(t) = speed * t * direction.
 
-    Feed ``positions(X, t)`` to ``Deformer.set_rest_vertices`` (or
-    ``Lattice.deform_points``) each frame; the control points stay as they are.
+    Feed ``offset(t)`` to ``Deformer.set_rest_offsets`` (every object by the same
+    offset; on "vulkan" only the offset goes to the device), or ``positions(X, t)``
+    to ``Deformer.set_rest_vertices`` (or ``Lattice.deform_points``), each frame;
+    the control points stay as they are.
 
     Parameters
     ----------

@@ -230,7 +230,7 @@ class Deformer:
         exactly as a Deformer built on that mesh would: new embedding, processing
         order and rest volume(s), so an object can travel through the lattice frame
         by frame. On the CPU it costs each vertex's cell, a counting sort by cell and
-        the embedding (straight into the sorted order): 1.2-2.7 plain FFD frames
+        the embedding (straight into the sorted order): 1.1-2.7 plain FFD frames
         (``bench/results/motion_vm.md``). What only a volume-preserving frame needs
         waits for the first such frame: the vertex fans relabelled into the new order
         (once, for any number of moves before it) and the new rest volume, its target
@@ -241,7 +241,9 @@ class Deformer:
         summed on the host in float64); the result equals a Vulkan Deformer built on
         the moved mesh within the backend's float32 tolerance
         (``bench/python/bench_motion.py`` measures both). ``mesh`` becomes a new
-        Mesh of these vertices; the caller's array is copied, never modified.
+        Mesh of these vertices; the caller's array is copied, never modified. These
+        vertices become the base of later ``set_rest_offsets``, the cheaper move for
+        objects that only travel.
 
         Raises
         ------

@@ -12,13 +12,14 @@ def bench_motion(load_bench):
     return load_bench("bench_motion")
 
 
+@pytest.mark.parametrize("how", ["positions", "offsets"])
 @pytest.mark.parametrize("preserve", [False, True])
-def test_a_cpu_move_is_all_host(bench_motion, preserve):
+def test_a_cpu_move_is_all_host(bench_motion, preserve, how):
     mesh = vpffd.shapes.icosphere(2)
     lat = vpffd.Lattice((-1.6, -1.6, -1.6), (1.6, 1.6, 1.6), shape=(6, 6, 6), degree=3)
     path = animate.PathOffset(lat, (1.0, -0.6, 0.3), speed=0.1)
     move, frame, fps, device, host = bench_motion.measure(mesh, lat, edits.twist(lat.control_points, 60), path,
-                                                          "serial", None, 3, preserve)
+                                                          "serial", None, 3, preserve, how)
     # No device: nothing is moved out of the frame, and the whole move is the host's.
     assert device == 0.0 and move == host
     assert host > 0 and frame > 0
@@ -35,3 +36,11 @@ def test_bench_move_prints_one_row_per_thread_count(load_bench, capsys, monkeypa
     for row in rows:
         py, core = (float(x) for x in row.strip("| ").split("|")[1:3])
         assert py > 0 and core > 0
+
+
+def test_an_unknown_move_is_refused(bench_motion):
+    mesh = vpffd.shapes.icosphere(1)
+    lat = vpffd.Lattice((-1.6, -1.6, -1.6), (1.6, 1.6, 1.6), shape=(4, 4, 4), degree=2)
+    with pytest.raises(ValueError, match="move"):
+        bench_motion.measure(mesh, lat, lat.control_points, animate.PathOffset(lat, "x", speed=0.1), "serial",
+                             None, 2, False, "teleport")

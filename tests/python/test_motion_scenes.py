@@ -56,3 +56,18 @@ def test_mobius_walkers_and_band_are_parts():
     X0, X1 = s.rest_positions(0.0), s.rest_positions(0.5 * s.duration)
     assert np.array_equal(X0[~s.moving], X1[~s.moving])
     assert np.all(X1[s.moving][:, 0] != X0[s.moving][:, 0])
+
+
+def test_the_scenes_move_by_part_offsets_to_their_rest_positions():
+    # run_motion moves each object by its part's offset (set_rest_offsets): the rest
+    # mesh it deforms is rest_positions(t) exactly (one float64 addition either way),
+    # the still band included, and the rest part volumes stay those of construction.
+    s = motion.mobius_walk(quick=True)
+    d = vpffd.Deformer(s.mesh, s.lattice, parts="components")
+    rest = d.rest_part_volumes.copy()
+    for t in (0.0, 0.37 * s.duration, 0.9 * s.duration):
+        O = s.part_offsets(t, d.vertex_parts)
+        assert O.shape == (8, 3) and np.count_nonzero(np.abs(O).sum(axis=1)) <= 7
+        d.set_rest_offsets(O)
+        assert np.array_equal(d.rest_vertices, s.rest_positions(t))
+        assert np.array_equal(d.rest_part_volumes, rest)

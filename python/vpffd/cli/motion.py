@@ -9,7 +9,8 @@ fixed deformation, each keeping its own volume.
   along x, seam "twist"): after one lap they come back on the other side.
 
 Every frame moves the objects' rest positions (``animate.PathOffset`` and
-``Deformer.set_rest_vertices``); the control points never change. Writes, under
+``Deformer.set_rest_offsets``: each moving object by the path's offset, the still
+ones by none); the control points never change. Writes, under
 ``out``: ``<scene>.gif`` and ``<scene>/frame_NNN.png`` (plain FFD | each object's
 volume kept, objects coloured by their volume change), ``motion_volume.png``
 (every object's volume over time, with and without preservation) and
@@ -59,6 +60,17 @@ class MotionScene:
         X = self.mesh.vertices.copy()
         X[self.moving] = self.path.positions(X[self.moving], t)
         return X
+
+    def part_offsets(self, t: float, vertex_parts: np.ndarray) -> np.ndarray:
+        """(K, 3) the offset of each part at time ``t`` (``vertex_parts``: the
+        Deformer's part of every vertex): the path's for a moving object, zero for a
+        still one. ``Deformer.set_rest_offsets`` of these gives ``rest_positions(t)``."""
+        K = int(vertex_parts.max()) + 1
+        moving = np.zeros(K, bool)
+        moving[vertex_parts[self.moving]] = True
+        if np.any(moving[vertex_parts[~self.moving]]):
+            raise AssertionError(f"{self.key}: an object is partly moving")
+        return np.where(moving[:, None], self.path.offset(t), 0.0)
 
 
 def _join(meshes) -> Mesh:
@@ -144,7 +156,7 @@ def run_motion(scene: MotionScene, backend: str = "serial", progress=None) -> Mo
         V, vols, rest, secs = [], [], [], []
         for f, t in enumerate(times):
             t0 = time.perf_counter()
-            d.set_rest_vertices(scene.rest_positions(t))
+            d.set_rest_offsets(scene.part_offsets(t, scene.vertex_parts))
             r = d.deform(scene.control_points, preserve_volume=preserve, axes="xyz")
             secs.append(time.perf_counter() - t0)
             V.append(r.vertices)
@@ -169,7 +181,7 @@ def table(scene: MotionScene, stream) -> None:
     p("")
     p(scene.title)
     p(f"  {scene.mesh.n_vertices:,} vertices, {len(scene.names)} objects; every frame moves the rest mesh "
-      f"(set_rest_vertices) and deforms it, control points fixed")
+      f"(set_rest_offsets) and deforms it, control points fixed")
     p(f"  {'object':>10} {'plain FFD: min':>15} {'max':>8} {'kept: max |error|':>19}")
     for i, name in enumerate(scene.names):
         p(f"  {name:>10} {100 * cp[:, i].min():+14.1f}% {100 * cp[:, i].max():+7.1f}% {np.abs(ck[:, i]).max():19.1e}")
