@@ -83,6 +83,23 @@ TriMesh uv_sphere(int rings, int segments) {
   return m;
 }
 
+/// Two spheres 2.5 apart along x (two components), and a lattice periodic along x with a
+/// "shift" seam for them to travel past.
+TriMesh two_spheres() {
+  const TriMesh s = icosphere(2);
+  TriMesh two;
+  two.V.resize(2 * s.V.rows(), 3);
+  two.F.resize(2 * s.F.rows(), 3);
+  two.V << s.V, s.V.rowwise() + Eigen::RowVector3d(2.5, 0, 0);
+  two.F << s.F, s.F.array() + int(s.V.rows());
+  return two;
+}
+
+Lattice shift_seam_lattice() {
+  return make_lattice(Vector3d(-1.5, -1.5, -1.5), Vector3d(5.5, 1.5, 1.5), {8, 4, 4}, {3, 2, 2},
+                      {Seam::Shift, Seam::None, Seam::None});
+}
+
 }  // namespace
 
 TEST(Reorder, CountingSortIsTheStableSortForAnyThreadCount) {
@@ -290,15 +307,9 @@ TEST(MovingRest, OpenMeshPartsAndPeriodicEqualAFreshDeformer) {
   }
   // Two spheres as parts on a lattice periodic along x (shift seam): the spheres
   // travel past the seam and wrap.
-  const TriMesh s = icosphere(2);
-  TriMesh two;
-  two.V.resize(2 * s.V.rows(), 3);
-  two.F.resize(2 * s.F.rows(), 3);
-  two.V << s.V, s.V.rowwise() + Eigen::RowVector3d(2.5, 0, 0);
-  two.F << s.F, s.F.array() + int(s.V.rows());
+  const TriMesh two = two_spheres();
   const MeshParts parts = parts_from_components(two.F, two.V.rows());
-  const Lattice L = make_lattice(Vector3d(-1.5, -1.5, -1.5), Vector3d(5.5, 1.5, 1.5), {8, 4, 4}, {3, 2, 2},
-                                 {Seam::Shift, Seam::None, Seam::None});
+  const Lattice L = shift_seam_lattice();
   const RowMatrixX3d P = restrict_points(make_ties(L), squashed(L, 0.7));
   Deformer D(two.V, two.F, L, OutsidePolicy::Error, 2, &parts);
   for (int step = 1; step <= 4; ++step) {
@@ -335,15 +346,9 @@ void expect_same_but_base_volumes(const Deformer& D, const Deformer& fresh, cons
 TEST(MovingRest, OffsetsEqualPositionsButKeepTheBaseVolumes) {
   // Two spheres as parts on a periodic lattice (shift seam), each moved by its own
   // offset past the seam, from the base (offsets do not accumulate).
-  const TriMesh s = icosphere(2);
-  TriMesh two;
-  two.V.resize(2 * s.V.rows(), 3);
-  two.F.resize(2 * s.F.rows(), 3);
-  two.V << s.V, s.V.rowwise() + Eigen::RowVector3d(2.5, 0, 0);
-  two.F << s.F, s.F.array() + int(s.V.rows());
+  const TriMesh two = two_spheres();
   const MeshParts parts = parts_from_components(two.F, two.V.rows());
-  const Lattice L = make_lattice(Vector3d(-1.5, -1.5, -1.5), Vector3d(5.5, 1.5, 1.5), {8, 4, 4}, {3, 2, 2},
-                                 {Seam::Shift, Seam::None, Seam::None});
+  const Lattice L = shift_seam_lattice();
   const RowMatrixX3d P = restrict_points(make_ties(L), squashed(L, 0.7));
   Deformer D(two.V, two.F, L, OutsidePolicy::Error, 2, &parts);
   const VectorXd base = D.rest_part_volumes();

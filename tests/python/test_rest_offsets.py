@@ -198,30 +198,36 @@ def test_bad_offsets_are_refused_and_change_nothing():
     _same_frames(e, f, P, target=e.rest_part_volumes)
 
 
+def check_box_edge(by_offsets, by_positions, mesh, lo, hi, tol):
+    """On each side along x, the last offset that `by_positions` takes for the moved
+    vertices and the next double, which it refuses (found by bisection over the
+    doubles, between the mesh touching the face at `lo` or `hi` and 2 `tol` past it):
+    `by_offsets` must decide the same at both (two Deformers of `mesh`)."""
+    def takes(o):
+        try:
+            by_positions.set_rest_vertices(mesh.vertices + [o, 0, 0])
+            return True
+        except vpffd.InvalidInputError:
+            return False
+
+    top, bottom = mesh.vertices[:, 0].max(), mesh.vertices[:, 0].min()
+    for ok, bad in ((hi - top, hi + 2 * tol - top), (lo - bottom, lo - 2 * tol - bottom)):
+        assert takes(ok) and not takes(bad)
+        while np.nextafter(ok, bad) != bad:
+            mid = 0.5 * (ok + bad)
+            if mid in (ok, bad):
+                mid = np.nextafter(ok, bad)
+            ok, bad = (mid, bad) if takes(mid) else (ok, mid)
+        by_offsets.set_rest_offsets([ok, 0, 0])
+        with pytest.raises(vpffd.InvalidInputError):
+            by_offsets.set_rest_offsets([bad, 0, 0])
+
+
 def test_the_box_edge_is_where_set_rest_vertices_puts_it():
-    # The largest x lands exactly on the box's face (taken), then one ulp past its
-    # tolerance (refused): the same decisions as for the positions themselves.
     mesh = shapes.icosphere(2)
     lat = _lattice()
-    d = vpffd.Deformer(mesh, lat, backend="serial")
-    c = vpffd.Deformer(mesh, lat, backend="serial")
-    top = mesh.vertices[:, 0].max()
-    tol = 1e-12 * 3.2
-    decisions = []
-    for o in (1.6 - top, 1.6 + tol - top, np.nextafter(1.6 + tol - top, 9), 1.6 + 2 * tol - top):
-        X = mesh.vertices + [o, 0, 0]
-        try:
-            c.set_rest_vertices(X)
-            ok = True
-        except vpffd.InvalidInputError:
-            ok = False
-        decisions.append(ok)
-        if ok:
-            d.set_rest_offsets([o, 0, 0])
-        else:
-            with pytest.raises(vpffd.InvalidInputError):
-                d.set_rest_offsets([o, 0, 0])
-    assert decisions[0] and not decisions[-1], decisions
+    check_box_edge(vpffd.Deformer(mesh, lat, backend="serial"), vpffd.Deformer(mesh, lat, backend="serial"), mesh,
+                   -1.6, 1.6, 1e-12 * 3.2)
 
 
 def test_memory_of_a_moving_deformer_counts_the_base():

@@ -17,6 +17,7 @@ from gpu_bounds import U32, U_SUM, check_frame
 from test_vulkan import DEVICE, edit, gpu_deformer
 from test_vulkan import precision  # noqa: F401 (the fixture)
 from test_vulkan_normals import check_normals
+from test_rest_offsets import check_box_edge
 
 pytestmark = pytest.mark.skipif(DEVICE is None, reason="no Vulkan backend in this build or no suitable device")
 
@@ -175,29 +176,12 @@ def test_refusals_are_the_cpus_and_change_nothing(precision):
 
 
 def test_the_box_edge_is_decided_as_for_positions(precision):
-    # The host tests the parts' boxes: at the face (taken), past its tolerance by an
-    # ulp (refused), exactly as set_rest_vertices decides for the moved vertices.
+    # The host tests the parts' boxes: the last offset a move by positions takes and
+    # the next double (refused) are decided alike, on both faces (check_box_edge).
     mesh = vpffd.shapes.icosphere(2)
     lat = _lattice()
-    g = gpu_deformer(mesh, lat, precision)
-    c = gpu_deformer(mesh, lat, precision)
-    top = mesh.vertices[:, 0].max()
-    tol = 1e-12 * 4.0
-    decisions = []
-    for o in (2.0 - top, 2.0 + tol - top, np.nextafter(2.0 + tol - top, 9), 2.0 + 2 * tol - top,
-              -2.0 - mesh.vertices[:, 0].min() - 2 * tol):
-        try:
-            c.set_rest_vertices(mesh.vertices + [o, 0, 0])
-            ok = True
-        except vpffd.InvalidInputError:
-            ok = False
-        decisions.append(ok)
-        if ok:
-            g.set_rest_offsets([o, 0, 0])
-        else:
-            with pytest.raises(vpffd.InvalidInputError):
-                g.set_rest_offsets([o, 0, 0])
-    assert decisions[0] and not decisions[-1], decisions
+    check_box_edge(gpu_deformer(mesh, lat, precision), gpu_deformer(mesh, lat, precision), mesh, -2.0, 2.0,
+                   1e-12 * 4.0)
 
 
 def test_the_frame_after_an_offset_move_times_its_device_embedding(precision):
