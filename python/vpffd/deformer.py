@@ -301,7 +301,11 @@ class Deformer:
             built with ``outside="extrapolate"``). The Deformer is unchanged then.
         """
         K = self._core.n_parts
-        arr = np.asarray(offsets)
+        try:
+            arr = np.asarray(offsets)
+        except ValueError:  # ragged nested sequences
+            raise InvalidInputError(f"set_rest_offsets: offsets: expected shape (3,) or ({K}, 3), got a ragged "
+                                    f"sequence") from None
         if not _arrays.is_real(arr.dtype):
             raise TypeError(f"set_rest_offsets: offsets: expected real numbers, got dtype {arr.dtype}")
         if arr.shape == (3,):

@@ -190,6 +190,12 @@ def test_bad_offsets_are_refused_and_change_nothing():
         assert np.array_equal(again.vertices, before.vertices) and again.volume == before.volume
     with pytest.raises(TypeError):
         d.set_rest_offsets(np.array([["a", "b", "c"]] * 2))
+    for bad in ([[0.1, 0, 0], [0, 0.1]], None, [True, False, True]):
+        with pytest.raises((TypeError, vpffd.InvalidInputError), match="set_rest_offsets"):
+            d.set_rest_offsets(bad)
+    with pytest.raises(vpffd.InvalidInputError, match="too far"):
+        d.set_rest_offsets([[1e308, 0, 0], [0, 0, 0]])  # the sum overflows
+    assert np.array_equal(d.rest_vertices, X_before)
     # Extrapolation takes them.
     e = vpffd.Deformer(mesh, lat, backend="serial", parts=labels, outside="extrapolate")
     e.set_rest_offsets([[0, 0, 0], [0.6, 0, 0]])
