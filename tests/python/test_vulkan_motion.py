@@ -141,27 +141,36 @@ def test_reruns_are_bit_identical_and_moving_back_reproduces(precision):
     assert back.volume == first.volume
 
 
-def test_the_frame_after_a_move_times_its_device_embedding(precision):
+@pytest.mark.parametrize("by", ["positions", "offsets"])
+def test_the_frame_after_a_move_times_its_device_embedding(precision, by):
     # gpu_move_ms (bench_motion's device column) is the move's own work: present in
-    # the frame that ran it, in no other, and not counted in gpu_total_ms.
+    # the frame that ran it, in no other, and not counted in gpu_total_ms; for a move
+    # by positions and one by offsets (set_rest_offsets: its own command buffer).
     mesh = vpffd.shapes.icosphere(3)
     lat = _lattice()
     P = edit(lat)
     g = gpu_deformer(mesh, lat, precision)
+
+    def move(scale, shift):
+        if by == "positions":
+            g.set_rest_vertices(mesh.vertices * scale + shift)
+        else:
+            g.set_rest_offsets(shift)
+
     g.deform(P, preserve_volume=False)
     if not g.last_timings()["has_timestamps"]:
         pytest.skip("the device's queue has no timestamps")
     assert g.last_timings()["gpu_move_ms"] == 0.0
     for frame in (dict(preserve_volume=False), dict(axes="xyz")):
-        g.set_rest_vertices(mesh.vertices * 0.9 + [0.2, -0.1, 0.05])
+        move(0.9, [0.2, -0.1, 0.05])
         g.deform(P, **frame)
         moved = g.last_timings()
         assert moved["gpu_move_ms"] > 0.0
         g.deform(P, **frame)
         assert g.last_timings()["gpu_move_ms"] == 0.0
     # Two moves without a frame between them: the device embeds the last one, once.
-    g.set_rest_vertices(mesh.vertices * 0.8)
-    g.set_rest_vertices(mesh.vertices * 0.85)
+    move(0.8, [0.0, 0.1, 0.0])
+    move(0.85, [0.1, 0.0, 0.0])
     g.deform(P)
     assert g.last_timings()["gpu_move_ms"] > 0.0
 
