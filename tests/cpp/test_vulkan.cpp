@@ -429,6 +429,57 @@ TEST_P(VulkanP, MovesWaitForTheNextFrame) {
   EXPECT_EQ((gpu.deform(P, plain).vertices - fresh1.deform(P, plain).vertices).cwiseAbs().maxCoeff(), 0.0);
 }
 
+// set_rest_offsets: the device adds the offset to the base positions it keeps (one
+// more rounding in its reals, far below float32's), so frames match the CPU Deformer
+// moved by the same offsets within the bounds above; both keep the base's rest volume.
+// A move by positions still waiting when the offsets come runs first, alone; vertices()
+// read before a frame runs the offset move's embedding alone.
+TEST_P(VulkanP, OffsetMovesMatchCpu) {
+  Scene s = sphere_in_big_lattice(3);
+  Deformer cpu(s.V, s.F, s.L);
+  auto gpu_ptr = make(s.V, s.F, s.L);
+  vulkan::VulkanDeformer& gpu = *gpu_ptr;
+  const RowMatrixX3d P = edit(s.L);
+  const double V0 = gpu.rest_volume();
+  for (int step = 1; step <= 3; ++step) {
+    SCOPED_TRACE(step);
+    RowMatrixX3d O(1, 3);
+    O << 0.5 * step, -0.2 * step, 0.3;
+    gpu.set_rest_offsets(O);
+    cpu.set_rest_offsets(O);
+    const RowMatrixX3d X = s.V.rowwise() + O.row(0);
+    EXPECT_EQ((gpu.rest_vertices() - X).cwiseAbs().maxCoeff(), 0.0);
+    const Vector3d o = gpu.origin();
+    EXPECT_LE((gpu.vertices() - X).cwiseAbs().maxCoeff(),
+              std::ldexp(1.0, -24) * (X.rowwise() - o.transpose()).cwiseAbs().maxCoeff());
+    const DeformResult g = gpu.deform(P, {}), c = cpu.deform(P, {});
+    EXPECT_EQ(g.target_volume, V0);
+    EXPECT_EQ(c.target_volume, V0);
+    expect_close(g, c, s.F, s.L, P);
+  }
+  // Positions, then offsets from them before any frame; offsets do not accumulate.
+  const RowMatrixX3d Y = s.V * 0.9;
+  gpu.set_rest_vertices(Y);
+  cpu.set_rest_vertices(Y);
+  RowMatrixX3d O(1, 3);
+  O << 0.4, 0.0, 0.0;
+  gpu.set_rest_offsets(O);
+  O << 0.0, 0.6, -0.2;
+  gpu.set_rest_offsets(O);
+  cpu.set_rest_offsets(O);
+  EXPECT_EQ(gpu.rest_volume(), cpu.rest_volume());
+  expect_close(gpu.deform(P, {}), cpu.deform(P, {}), s.F, s.L, P);
+  // Refused: the wrong count, a non-finite offset, vertices moved out of the box.
+  EXPECT_THROW(gpu.set_rest_offsets(RowMatrixX3d::Zero(2, 3)), InvalidInputError);
+  RowMatrixX3d bad = O;
+  bad(0, 1) = std::nan("");
+  EXPECT_THROW(gpu.set_rest_offsets(bad), InvalidInputError);
+  bad = O;
+  bad(0, 0) = 100.0;
+  EXPECT_THROW(gpu.set_rest_offsets(bad), InvalidInputError);
+  expect_close(gpu.deform(P, {}), cpu.deform(P, {}), s.F, s.L, P);
+}
+
 TEST_P(VulkanP, MovedRestBadInput) {
   Scene s = sphere(2, 3, {5, 5, 5});
   auto gpu_ptr = make(s.V, s.F, s.L);
