@@ -1,7 +1,8 @@
 #!/usr/bin/env python
 """Moving the rest mesh from Python: ``Deformer.set_rest_vertices`` as a user calls it
 (argument checks, the copy the Deformer keeps, the core's move) against the core's
-move alone, back and forth between two positions 2 % of the mesh's size apart in a
+move alone and ``set_rest_offsets`` (the same two places as offsets), back and forth
+between two positions 2 % of the mesh's size apart in a
 10^3 cubic lattice (vertices change cell every call: the processing order changes),
 on 1 and 2 threads. A move no longer sums the rest volume (a frame that needs it does:
 cpp/include/vpffd/frame/rest_volume.h), so it is the move alone. With
@@ -46,21 +47,26 @@ def main():
     step = 0.01 * (hi - lo)
     X = (mesh.vertices + step, mesh.vertices - step)
     print(f"{mesh.n_vertices:,} vertices; load average at start {os.getloadavg()[0]:.2f}")
-    print("| threads | set_rest_vertices (ms) | core move alone (ms) |")
-    print("|---:|---:|---:|")
+    O = (step, -step)  # set_rest_offsets to the same two places
+    print("| threads | set_rest_vertices (ms) | core move alone (ms) | set_rest_offsets (ms) |")
+    print("|---:|---:|---:|---:|")
     if a.backend == "vulkan":
         d = vpffd.Deformer(mesh, lat, backend="vulkan")
         d.set_rest_vertices(X[1])
         d.deform()  # the construction's device work done
         py = median_ms(lambda i: d.set_rest_vertices(X[i % 2]), a.moves)
         core = median_ms(lambda i: d._vk.set_rest_vertices(X[i % 2]), a.moves)
-        print(f"| {vpffd._core.max_threads()} (host) | {py:.2f} | {core:.2f} |")
+        d.set_rest_vertices(mesh.vertices)  # the base of the offsets
+        off = median_ms(lambda i: d.set_rest_offsets(O[i % 2]), a.moves)
+        print(f"| {vpffd._core.max_threads()} (host) | {py:.2f} | {core:.2f} | {off:.2f} |")
     backend = "openmp" if vpffd._core.has_openmp() else "serial"
     for threads in ((1, 2) if backend == "openmp" else (1,)) if a.backend == "cpu" else ():
         d = vpffd.Deformer(mesh, lat, backend=backend, threads=threads)
         py = median_ms(lambda i: d.set_rest_vertices(X[i % 2]), a.moves)
         core = median_ms(lambda i: d._core.set_rest_vertices(X[i % 2], threads), a.moves)
-        print(f"| {threads} | {py:.2f} | {core:.2f} |")
+        d.set_rest_vertices(mesh.vertices)
+        off = median_ms(lambda i: d.set_rest_offsets(O[i % 2]), a.moves)
+        print(f"| {threads} | {py:.2f} | {core:.2f} | {off:.2f} |")
     print(f"load average at end {os.getloadavg()[0]:.2f}")
 
 

@@ -34,8 +34,8 @@ def test_bench_move_prints_one_row_per_thread_count(load_bench, capsys, monkeypa
     rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ") and line[2].isdigit()]
     assert len(rows) == (2 if vpffd._core.has_openmp() else 1)
     for row in rows:
-        py, core = (float(x) for x in row.strip("| ").split("|")[1:3])
-        assert py > 0 and core > 0
+        py, core, off = (float(x) for x in row.strip("| ").split("|")[1:4])
+        assert py > 0 and core > 0 and off > 0
 
 
 def test_an_unknown_move_is_refused(bench_motion):
