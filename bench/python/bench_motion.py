@@ -17,6 +17,8 @@ Scenes (meshes generated in code, the paper's counts):
   * sphere: 163,842 vertices (icosphere(7)) drifting diagonally through an 8x8x8 cubic
     lattice under a twist: a larger mesh than the paper's, where the cost of moving
     the rest mesh against a frame is measured (issue 13: far below a frame).
+  * drag: the whales, one of them swimming and the other three still (an object moved
+    among others): moved by offsets, only that whale is embedded again.
 Per scene, backend and kind of move: the median over ``--frames`` frames of moving the
 rest mesh (``set_rest_vertices`` with the moved positions, or ``set_rest_offsets`` with
 the path's offset: on Vulkan only the offsets travel, and the rest volumes stay those of
@@ -75,6 +77,35 @@ def car_open():
     return mesh, lat, P, animate.PathOffset(lat, "x", speed=1.5, wrap=False)
 
 
+class OneOfMany:
+    """Part 0 moved by ``offset0(t)`` ((3,)), the other parts still (``offset``: (K, 3),
+    one row per part, as ``set_rest_offsets`` takes them with parts)."""
+    per_part = True
+
+    def __init__(self, offset0, vertex_parts):
+        self.offset0, self.parts = offset0, np.asarray(vertex_parts)
+        self.count = int(self.parts.max()) + 1
+
+    def offset(self, t):
+        O = np.zeros((self.count, 3))
+        O[0] = self.offset0(t)
+        return O
+
+    def positions(self, V, t):
+        X = np.array(V, dtype=np.float64)
+        X[self.parts == 0] += self.offset0(t)
+        return X
+
+
+def drag():
+    mesh, lat, P, path = whales()
+    per_fish = mesh.n_vertices // 4  # the fish are concatenated, one component each
+    # Back and forth in its gap (0.6 of the ring between whales; cells 0.36 long), up
+    # and down: it crosses cells every frame and never meets the others.
+    return mesh, lat, P, OneOfMany(lambda t: [0.25 * np.sin(0.5 * np.pi * t), 0.0, 0.05 * np.sin(np.pi * t)],
+                                   np.arange(mesh.n_vertices) // per_fish)
+
+
 def sphere():
     mesh = shapes.icosphere(7)
     lat = vpffd.Lattice((-1.6, -1.6, -1.6), (1.6, 1.6, 1.6), shape=(8, 8, 8), degree=3)
@@ -85,18 +116,20 @@ def sphere():
 
 
 Mesh = vpffd.Mesh
-SCENES = {"whales": whales, "ants": ants, "car": car, "car-open": car_open, "sphere": sphere}
+SCENES = {"whales": whales, "ants": ants, "car": car, "car-open": car_open, "sphere": sphere, "drag": drag}
 
 
 def measure(mesh, lat, P, path, backend, threads, frames, preserve, move="positions"):
     """(move, frame, fps, device part, host part) medians in ms (fps: of both). `move`:
     "positions" (set_rest_vertices(X + o(t))) or "offsets" (set_rest_offsets(o(t)):
-    every object by the path's offset, from the rest mesh of construction)."""
+    every object by the path's offset, from the rest mesh of construction; a path with
+    ``per_part`` (OneOfMany) gives one offset per part, and the Deformer has parts on
+    plain frames too)."""
     # Every object keeps its own volume, on every backend.
     kw = dict(backend=backend)
     if backend != "vulkan":
         kw["threads"] = threads
-    if preserve:
+    if preserve or getattr(path, "per_part", False):
         kw["parts"] = "components"
     d = vpffd.Deformer(mesh, lat, **kw)
     times = np.linspace(0.0, 4.0, frames + 1)

@@ -286,7 +286,10 @@ class Deformer:
         translation changes) sums them again, as ``set_rest_vertices`` does. On
         "vulkan" only the K offsets go to the device, which moves, embeds and sorts
         the vertices it keeps; the host tests the moved parts' bounding boxes against
-        the lattice box (the same refusals as ``set_rest_vertices``, in O(K)).
+        the lattice box (the same refusals as ``set_rest_vertices``, in O(K)). On the
+        CPU a part whose offset is the one it already has (bit for bit) keeps its
+        embedding: when at most half of the vertices move (one object among still
+        ones), only the moved parts are embedded again, with the same result.
 
         Parameters
         ----------

@@ -85,15 +85,21 @@ TriMesh uv_sphere(int rings, int segments) {
 
 /// Two spheres 2.5 apart along x (two components), and a lattice periodic along x with a
 /// "shift" seam for them to travel past.
-TriMesh two_spheres() {
-  const TriMesh s = icosphere(2);
-  TriMesh two;
-  two.V.resize(2 * s.V.rows(), 3);
-  two.F.resize(2 * s.F.rows(), 3);
-  two.V << s.V, s.V.rowwise() + Eigen::RowVector3d(2.5, 0, 0);
-  two.F << s.F, s.F.array() + int(s.V.rows());
-  return two;
+/// n unit icospheres (subdivided `level` times), 2.5 apart along x (one part each).
+TriMesh sphere_row(int n, int level = 2) {
+  const TriMesh s = icosphere(level);
+  const Index nv = s.V.rows(), nf = s.F.rows();
+  TriMesh m;
+  m.V.resize(n * nv, 3);
+  m.F.resize(n * nf, 3);
+  for (int k = 0; k < n; ++k) {
+    m.V.middleRows(k * nv, nv) = s.V.rowwise() + Eigen::RowVector3d(2.5 * k, 0, 0);
+    m.F.middleRows(k * nf, nf) = s.F.array() + int(k * nv);
+  }
+  return m;
 }
+
+TriMesh two_spheres() { return sphere_row(2); }
 
 Lattice shift_seam_lattice() {
   return make_lattice(Vector3d(-1.5, -1.5, -1.5), Vector3d(5.5, 1.5, 1.5), {8, 4, 4}, {3, 2, 2},
@@ -326,11 +332,15 @@ void expect_same_but_base_volumes(const Deformer& D, const Deformer& fresh, cons
                                   const RowMatrixX3d& P, const VectorXd& base_volumes) {
   EXPECT_EQ(D.rest_vertices(), X);
   EXPECT_EQ(D.processing_order(), fresh.processing_order());
+  EXPECT_EQ(D.processing_faces(), fresh.processing_faces());
   EXPECT_EQ(D.part_start(), fresh.part_start());
   EXPECT_EQ(D.rest_part_volumes(), base_volumes);
   for (int a = 0; a < 3; ++a) {
     EXPECT_EQ(D.processing_embedding().span[a], fresh.processing_embedding().span[a]);
     EXPECT_EQ(D.processing_embedding().tau[a], fresh.processing_embedding().tau[a]);
+    const AxisCoefficients c = D.volume_coefficients(X, a), f = fresh.volume_coefficients(X, a);
+    EXPECT_EQ(c.alpha, f.alpha);
+    EXPECT_EQ(c.volume, f.volume);
   }
   CorrectionOptions o;
   if (D.has_parts())
@@ -382,6 +392,72 @@ TEST(MovingRest, OffsetsEqualPositionsButKeepTheBaseVolumes) {
   bad(0, 1) = 1.0;  // y is not periodic: the sphere leaves the box
   EXPECT_THROW(D.set_rest_offsets(bad), InvalidInputError);
   expect_same_but_base_volumes(D, Deformer(X, two.F, L, OutsidePolicy::Error, 1, &parts), X, P, base_y);
+}
+
+TEST(MovingRest, OffsetsOfSomePartsEqualTheWholeMove) {
+  // Four spheres as parts on the shift-seam lattice (the fourth past the seam). Moves
+  // that change some parts' offsets re-embed only those (Deformer::move_parts): the
+  // state and the frames must be those of a Deformer built on the moved mesh, through
+  // every kind of move: first (whole), one part, half the parts (at the limit), none,
+  // three parts (whole again), a sign of zero, and back.
+  const TriMesh m = sphere_row(4);
+  const MeshParts parts = parts_from_components(m.F, m.V.rows());
+  ASSERT_EQ(parts.count, 4);
+  const Lattice L = shift_seam_lattice();
+  const RowMatrixX3d P = restrict_points(make_ties(L), squashed(L, 0.7));
+  Deformer D(m.V, m.F, L, OutsidePolicy::Error, 2, &parts);
+  const VectorXd base = D.rest_part_volumes();
+  RowMatrixX3d O = RowMatrixX3d::Zero(4, 3);
+  auto check = [&](const char* what, int threads) {
+    SCOPED_TRACE(what);
+    D.set_rest_offsets(O, threads);
+    RowMatrixX3d X = m.V;
+    for (Index v = 0; v < X.rows(); ++v) X.row(v) += O.row(parts.vertex_part[v]);
+    expect_same_but_base_volumes(D, Deformer(X, m.F, L, OutsidePolicy::Error, 1, &parts), X, P, base);
+  };
+  O.row(1) << 0.37, 0.05, -0.02;
+  check("first move", 2);
+  const double before = D.bytes_per_vertex();
+  O.row(2) << -0.81, -0.04, 0.06;  // across cells: the part's order changes
+  check("one part", 1);
+  EXPECT_GT(D.bytes_per_vertex(), before) << "the move of one part keeps each part's vertices";
+  O.row(0) << 1.9, 0.01, 0.0;
+  O.row(3) << 3.3, -0.02, 0.03;  // past the seam
+  check("two parts of four", 2);
+  check("no part", 2);
+  O.row(0) << 0.2, 0.0, 0.0;
+  O.row(1) << 0.0, 0.1, 0.0;
+  O.row(2) << 0.0, 0.0, 0.1;
+  check("three parts", 1);
+  O(0, 1) = -0.0;  // another offset, bit for bit, that moves nothing
+  check("a negative zero", 2);
+  O.row(2) << -0.81, -0.04, 0.06;
+  check("a part back", 2);
+  // A moved part refused: the whole move's error (naming the part), nothing changed.
+  RowMatrixX3d bad = O;
+  bad(3, 1) = 1.0;  // y is not periodic: the sphere leaves the box
+  try {
+    D.set_rest_offsets(bad, 2);
+    ADD_FAILURE() << "a sphere outside the box was taken";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("part"), std::string::npos) << e.what();
+  }
+  check("after the refusal", 2);
+  // Parts large enough that the moved ones are embedded side by side on threads
+  // (parallel_items: over kParallelMin vertices moved): the same state.
+  const TriMesh big = sphere_row(4, 6);
+  const MeshParts big_parts = parts_from_components(big.F, big.V.rows());
+  Deformer B(big.V, big.F, L, OutsidePolicy::Error, 2, &big_parts);
+  const VectorXd big_base = B.rest_part_volumes();
+  O.setZero();
+  for (int step = 1; step <= 3; ++step) {
+    O.row(0) << 0.3 * step, 0.01, 0.0;
+    O.row(2) << -0.45 * step, 0.0, -0.02;
+    B.set_rest_offsets(O, step == 2 ? 1 : 2);
+    RowMatrixX3d X = big.V;
+    for (Index v = 0; v < X.rows(); ++v) X.row(v) += O.row(big_parts.vertex_part[v]);
+    expect_same_but_base_volumes(B, Deformer(X, big.F, L, OutsidePolicy::Error, 2, &big_parts), X, P, big_base);
+  }
 }
 
 TEST(MovingRest, RestVolumeWaitsForItsFirstUseAndIsTheEagerSum) {

@@ -27,6 +27,29 @@ def test_a_cpu_move_is_all_host(bench_motion, preserve, how):
     assert np.isfinite([move, frame, fps]).all()
 
 
+def test_one_of_many_moves_part_zero_alone(bench_motion):
+    # The drag scene's path: part 0 follows the path, the others stay; both kinds of move
+    # give the same rest mesh, and measure runs it with parts on plain frames too.
+    s = vpffd.shapes.icosphere(2)
+    mesh = vpffd.Mesh(np.concatenate([0.4 * s.vertices - [0.7, 0, 0], 0.4 * s.vertices + [0.7, 0, 0]]),
+                      np.concatenate([s.faces, s.faces + s.n_vertices]))
+    parts = np.repeat([0, 1], s.n_vertices)
+    lat = vpffd.Lattice((-1.6, -1.6, -1.6), (1.6, 1.6, 1.6), shape=(6, 6, 6), degree=3)
+    path = bench_motion.OneOfMany(animate.PathOffset(lat, (0.0, 1.0, 0.0), speed=0.1).offset, parts)
+    O = path.offset(2.0)
+    assert O.shape == (2, 3) and np.allclose(O[0], [0, 0.2, 0]) and not O[1].any()
+    X = path.positions(mesh.vertices, 2.0)
+    assert np.array_equal(X, mesh.vertices + O[parts])
+    a = vpffd.Deformer(mesh, lat, backend="serial", parts="components")
+    a.set_rest_offsets(O)
+    assert np.array_equal(a.rest_vertices, X)
+    for preserve in (False, True):
+        for how in ("positions", "offsets"):
+            move, frame, fps, device, host = bench_motion.measure(mesh, lat, edits.twist(lat.control_points, 60),
+                                                                  path, "serial", None, 3, preserve, how)
+            assert move == host > 0 and frame > 0
+
+
 def test_bench_move_prints_one_row_per_thread_count(load_bench, capsys, monkeypatch):
     bench_move = load_bench("bench_move")
     monkeypatch.setattr("sys.argv", ["bench_move.py", "--level", "2", "--moves", "2"])

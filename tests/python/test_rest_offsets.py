@@ -124,6 +124,32 @@ def test_periodic_ring_offsets_wrap_as_positions():
             _same_frames(a, b, P, target=a.rest_part_volumes)
 
 
+@pytest.mark.parametrize("seam", ["closed", "twist"])
+def test_moving_some_parts_equals_moving_all(seam):
+    # Five spheres on a periodic lattice; each move changes some parts' offsets and
+    # keeps the others' bit for bit: only the changed parts are embedded again
+    # (Deformer::move_parts, over half of the vertices: the whole move). Every state
+    # must give the frames of set_rest_vertices(base + offsets).
+    s = shapes.icosphere(3)
+    n = 5
+    V = np.concatenate([0.3 * s.vertices + [-1.2 + 0.6 * k, 0.05 * k, -0.04 * k] for k in range(n)])
+    mesh = vpffd.Mesh(V, np.concatenate([s.faces + k * s.n_vertices for k in range(n)]))
+    labels = np.repeat(np.arange(n), s.n_vertices)
+    lat = vpffd.Lattice((-1.6, -1.6, -1.6), (1.6, 1.6, 1.6), shape=(8, 5, 5), degree=3, periodic="x", seam=seam)
+    P = edits.twist(edits.squash(lat.control_points, 0.8), 40)
+    a = vpffd.Deformer(mesh, lat, backend="openmp", threads=2, parts="components")
+    b = vpffd.Deformer(mesh, lat, backend="serial", parts=labels)
+    O = np.zeros((n, 3))
+    for step, moved in enumerate([[1], [3], [0, 4], [], [1, 2, 3], [2], [0, 1, 2, 3, 4], [4]]):
+        for k in moved:
+            O[k] = [0.37 * (step + 1) * (-1) ** k, 0.02 * step, -0.01 * k]
+        a.set_rest_offsets(O)
+        X = mesh.vertices + O[labels]
+        b.set_rest_vertices(X)
+        assert np.array_equal(a.rest_vertices, X), (step, moved)
+        _same_frames(a, b, P, target=a.rest_part_volumes)
+
+
 @pytest.mark.filterwarnings("ignore:deform. the mesh is not closed")
 def test_open_mesh_sums_the_moved_positions():
     # allow_open frames keep the cone volume from the lattice centre, which a

@@ -16,6 +16,8 @@
 /// helpers and the plan's type live in correction/ (constraints.h, plan.h).
 
 #include <chrono>
+#include <cstring>
+#include <exception>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -89,6 +91,7 @@ class Deformer {
     try {
       embed_rest(X, threads, "set_rest_vertices");
       base_.resize(0, 3);  // later offsets move from X
+      offsets_.resize(0, 3);
     } catch (const InvalidInputError&) {
       // The embedding refuses non-finite coordinates (with points too far away) in the
       // pass it makes anyway; only a refused move looks for them, to name them as such.
@@ -108,6 +111,8 @@ class Deformer {
   /// after every move; the moved positions' own sum would differ from them by rounding
   /// only). An open mesh without parts (allow_open frames: cone volumes from origin(),
   /// which a translation changes) sums its moved positions as set_rest_vertices does.
+  /// Parts whose offset is the last move's, bit for bit, keep their embedding: where at
+  /// most half of the vertices move, only the moved parts are embedded (move_parts).
   /// @param[in] offsets  n_parts() x 3 translations, in the parts' order (part_labels)
   /// @throws InvalidInputError for a wrong shape, non-finite offsets, or vertices moved
   ///         outside the lattice box (unless built with OutsidePolicy::Extrapolate); the
@@ -119,6 +124,9 @@ class Deformer {
       VPFFD_CHECK(offsets.row(k).allFinite(), "set_rest_offsets: offset ", k, " (", offsets(k, 0), ", ",
                   offsets(k, 1), ", ", offsets(k, 2), ") is not finite");
     const bool first = base_.rows() == 0;
+    // Parts whose offset is the one they have (bit for bit) keep their vertices, cells
+    // and embedding: a move of some parts only re-embeds those (move_parts).
+    if (!first && has_parts_ && offsets_.rows() == offsets.rows() && move_parts(offsets, threads)) return;
     if (first) base_ = V_;  // V_'s rest volumes (known or not) are then the base's too
     RowMatrixX3d& X = spare_rest_;
     X.resize(n_vertices(), 3);
@@ -138,6 +146,7 @@ class Deformer {
       if (first) base_.resize(0, 3);
       throw;
     }
+    offsets_ = offsets;
   }
 
   /// Whether the rest mesh is its base moved by set_rest_offsets (base_vertices()).
@@ -276,7 +285,8 @@ class Deformer {
   /// ~100 more where all vertices are in short runs); 40 more once the rest
   /// mesh has moved (the next move's buffers: embedding 36, cells 4), and 4 while the
   /// adjacency waits to be relabelled after moves (the order it is in); 48 more after
-  /// set_rest_offsets (the base positions and the buffer of the moved ones).
+  /// set_rest_offsets (the base positions and the buffer of the moved ones), and 4
+  /// once it has moved only some parts (move_parts: each part's vertices).
   double bytes_per_vertex() const {
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size() + base_.size() + spare_rest_.size()) * sizeof(double) +
@@ -295,7 +305,8 @@ class Deformer {
       bytes += double(rings_.indptr.size() + rings_.pairs.size() + adjacency_order_.size()) * per_int +
                double(fans_.bytes());
     }
-    bytes += double(spare_cells_.size()) * per_int;
+    bytes += double(spare_cells_.size() + part_vertices_.size()) * per_int +
+             double(part_vertex_start_.size()) * sizeof(Index);
     bytes += double(n_vertices() + spare_embedding_.size()) * Embedding::bytes_per_point;
     bytes += double(runs_.bytes());
     return bytes / double(n_vertices());
@@ -548,6 +559,123 @@ class Deformer {
       std::lock_guard<std::mutex> lock(adjacency_mutex_);
       adjacency_.reset();  // of the old faces' numbering
     }
+  }
+
+  /// set_rest_offsets where only some parts' offsets differ from those of the last
+  /// offset move (bit for bit): the other parts keep their rest positions, cells,
+  /// places in the processing order and embedding, and only the moved ones are
+  /// embedded again, each into its own range of the order (a part's vertices are
+  /// together there, sorted by cell and then by vertex, which sorting a part alone
+  /// reproduces). The state is then that of the whole move, bit for bit. Costs the
+  /// moved parts' vertices plus the cell runs of the whole mesh: a car driving over a
+  /// terrain that other parts share, or one object dragged among many.
+  /// @returns false, having changed nothing, where the whole move is as cheap (over
+  ///          half of the vertices moved) or a moved part is refused (the whole move
+  ///          then throws its error, which names every part outside)
+  bool move_parts(const Eigen::Ref<const RowMatrixX3d>& offsets, int threads) {
+    const int K = parts_.count;
+    if (part_vertices_.empty()) {
+      // Each part's vertices in ascending order (a stable sort by part), once.
+      part_vertices_ = counting_sort(parts_.vertex_part, K, threads);
+      part_vertex_start_.assign(K + 1, 0);
+      for (std::int32_t k : parts_.vertex_part) ++part_vertex_start_[k + 1];
+      for (int k = 0; k < K; ++k) part_vertex_start_[k + 1] += part_vertex_start_[k];
+    }
+    std::vector<int> moved;
+    Index n_moved = 0;
+    for (int k = 0; k < K; ++k)
+      for (int a = 0; a < 3; ++a) {
+        const double o = offsets(k, a), was = offsets_(k, a);
+        if (std::memcmp(&o, &was, sizeof o) != 0) {
+          moved.push_back(k);
+          n_moved += part_vertex_start_[k + 1] - part_vertex_start_[k];
+          break;
+        }
+      }
+    if (moved.empty()) return true;  // the whole move would compute the state there is
+    if (2 * n_moved > n_vertices()) return false;
+    // Each moved part: its positions (in ascending vertex order), their cells (the
+    // check of the whole move), its new order within the part and its embedding.
+    struct Part {
+      RowMatrixX3d X;
+      std::vector<std::int32_t> cell, order;
+      Embedding E;
+    };
+    std::vector<Part> parts(moved.size());
+    const Index n_cells = Index(tables_.dims[0]) * tables_.dims[1] * tables_.dims[2];
+    // The parts side by side, each on one thread (one part alone: on all of them).
+    // Errors stay in their part (none may leave a parallel region).
+    const int inner = moved.size() > 1 ? 1 : threads;
+    std::vector<std::exception_ptr> error(moved.size());
+    std::vector<char> refused(moved.size(), 0);
+    parallel_items(Index(moved.size()), n_moved, threads, [&](Index q) {
+      try {
+        const int k = moved[q];
+        const Index b = part_vertex_start_[k], m = part_vertex_start_[k + 1] - b;
+        Part& P = parts[q];
+        P.X.resize(m, 3);
+        for (Index i = 0; i < m; ++i)
+          for (int a = 0; a < 3; ++a) P.X(i, a) = base_(part_vertices_[b + i], a) + offsets(k, a);
+        try {
+          embed_cells(lattice_, P.X, policy_, P.cell, inner, "vertex");
+        } catch (const InvalidInputError&) {
+          refused[q] = 1;
+          return;
+        }
+        P.order = counting_sort(P.cell, n_cells, inner);
+        embed_into(lattice_, P.X, policy_, P.E, inner, "vertex", P.order.data());
+      } catch (...) {
+        error[q] = std::current_exception();
+      }
+    });
+    for (const std::exception_ptr& e : error)
+      if (e) std::rethrow_exception(e);
+    for (char r : refused)
+      if (r) return false;
+    bool reordered = false;
+    for (size_t q = 0; q < moved.size() && !reordered; ++q) {
+      const Index b = part_vertex_start_[moved[q]], s = part_start_[moved[q]];
+      for (Index i = 0; i < Index(parts[q].order.size()) && !reordered; ++i)
+        reordered = order_[s + i] != part_vertices_[b + parts[q].order[i]];
+    }
+    if (reordered) {
+      // The fans' and rings' labels are of the order before this move, unless they
+      // were of an earlier one still (embed_rest).
+      std::lock_guard<std::mutex> lock(adjacency_sync_mutex_);
+      if (adjacency_order_.empty()) adjacency_order_ = order_;
+    }
+    // Nothing below throws: the Deformer's state is replaced from here on.
+    {
+      std::lock_guard<std::mutex> lock(face_matrix_mutex_);
+      face_matrix_.reset();  // built from the old embedding
+    }
+    volumes_of_base_ = true;  // as the whole move (the parts' volumes are translations')
+    for (size_t q = 0; q < moved.size(); ++q) {
+      const Index b = part_vertex_start_[moved[q]], s = part_start_[moved[q]];
+      const Part& P = parts[q];
+      for (Index i = 0; i < P.X.rows(); ++i) {
+        const std::int32_t v = part_vertices_[b + P.order[i]];
+        V_.row(part_vertices_[b + i]) = P.X.row(i);
+        order_[s + i] = v;
+        rank_[v] = static_cast<std::int32_t>(s + i);
+      }
+      for (int a = 0; a < 3; ++a) {
+        std::copy(P.E.span[a].begin(), P.E.span[a].end(), embedding_.span[a].begin() + s);
+        std::copy(P.E.tau[a].begin(), P.E.tau[a].end(), embedding_.tau[a].begin() + s);
+      }
+    }
+    if (reordered) {
+      {
+        std::lock_guard<std::mutex> lock(faces_mutex_);
+        faces_stale_ = true;
+      }
+      std::lock_guard<std::mutex> lock(adjacency_mutex_);
+      adjacency_.reset();  // of the old faces' numbering
+    }
+    set_runs(threads);
+    set_seam_shifts(V_);
+    offsets_ = offsets;
+    return true;
   }
 
   /// The cell runs of the embedding, with the basis values of their short runs' points
@@ -821,6 +949,9 @@ class Deformer {
   LazyRestVolumes rest_volumes_;     ///< of V_, or of base_ when volumes_of_base_ (rest_volumes())
   RowMatrixX3d base_;                ///< set_rest_offsets' base positions (empty before its first move)
   RowMatrixX3d spare_rest_;          ///< set_rest_offsets' buffer for the moved positions
+  RowMatrixX3d offsets_;             ///< the last set_rest_offsets' offsets (empty before it, and after set_rest_vertices)
+  std::vector<std::int32_t> part_vertices_;  ///< move_parts: each part's vertices, ascending (empty before its first use)
+  std::vector<Index> part_vertex_start_;     ///< K + 1: part k's in part_vertices_
   bool volumes_of_base_ = false;     ///< the rest volumes are base_'s (a translation of V_)
   bool has_parts_ = false;
   MeshParts parts_;                  ///< count 1 and no labels without parts
