@@ -29,6 +29,10 @@ shapes differ slightly; the work per vertex is the same (64 control points).
 
 Results: bench/results/peers_<host>.json and .csv. Without ./.venv-peers (and
 without --install-peers) only the vpffd columns are measured.
+
+PyGeM (mathLab's FFD in Python) is not measured: it is not on PyPI, where the name
+``pygem`` is a glacier model (every release, 0.2.0 to 1.0.4, checked 2026-11-28), and
+this machine reaches PyPI and Debian only.
 """
 from __future__ import annotations
 
