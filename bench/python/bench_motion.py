@@ -18,7 +18,7 @@ Scenes (meshes generated in code, the paper's counts):
     lattice under a twist: a larger mesh than the paper's, where the cost of moving
     the rest mesh against a frame is measured (issue 13: far below a frame).
   * drag: the whales, one of them swimming and the other three still (an object moved
-    among others): moved by offsets, only that whale is embedded again.
+    among others): by offsets or by positions, only that whale is embedded again.
 Per scene, backend and kind of move: the median over ``--frames`` frames of moving the
 rest mesh (``set_rest_vertices`` with the moved positions, or ``set_rest_offsets`` with
 the path's offset: on Vulkan only the offsets travel, and the rest volumes stay those of

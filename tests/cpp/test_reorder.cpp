@@ -460,6 +460,73 @@ TEST(MovingRest, OffsetsOfSomePartsEqualTheWholeMove) {
   }
 }
 
+TEST(MovingRest, PositionsOfSomePartsEqualTheWholeMove) {
+  // set_rest_vertices with only some parts' rows changed (Deformer::reposition_parts):
+  // the state, the rest volumes (of X, summed when first needed) and the frames of a
+  // Deformer built on X, through moves of one part, of half, of none, of three, a
+  // part's single vertex, after offset moves (whose kept volumes X's sums replace),
+  // and a refusal.
+  const TriMesh m = sphere_row(4);
+  const MeshParts parts = parts_from_components(m.F, m.V.rows());
+  const Lattice L = shift_seam_lattice();
+  const RowMatrixX3d P = restrict_points(make_ties(L), squashed(L, 0.7));
+  Deformer D(m.V, m.F, L, OutsidePolicy::Error, 2, &parts);
+  RowMatrixX3d X = m.V;
+  auto move = [&](int k, const Vector3d& by) {
+    for (Index v = 0; v < X.rows(); ++v)
+      if (parts.vertex_part[v] == k) X.row(v) += by.transpose();
+  };
+  auto check = [&](const char* what, int threads) {
+    SCOPED_TRACE(what);
+    D.set_rest_vertices(X, threads);
+    EXPECT_FALSE(D.rest_is_offset());
+    EXPECT_EQ(D.rest_vertices(), X);
+    expect_same_deformer(D, Deformer(X, m.F, L, OutsidePolicy::Error, 1, &parts), X, P);
+  };
+  move(1, Vector3d(0.37, 0.05, -0.02));
+  check("one part", 2);
+  move(0, Vector3d(-0.81, -0.04, 0.06));
+  move(3, Vector3d(3.3, -0.02, 0.03));  // past the seam
+  check("two parts of four", 1);
+  check("no part", 2);
+  move(0, Vector3d(0.2, 0, 0));
+  move(1, Vector3d(0, 0.1, 0));
+  move(2, Vector3d(0, 0, 0.1));
+  check("three parts", 2);
+  X(5, 2) += 0.01;  // one vertex of part 0: the part is embedded again
+  check("one vertex", 2);
+  RowMatrixX3d O = RowMatrixX3d::Zero(4, 3);
+  O.row(2) << 0.3, 0.0, 0.0;
+  D.set_rest_offsets(O, 2);  // volumes kept from the base X...
+  X = D.rest_vertices();
+  move(1, Vector3d(-0.2, 0, 0));
+  check("after an offset move", 2);  // ...and X's own after set_rest_vertices
+  // A moved part refused: the whole move's error, nothing changed.
+  RowMatrixX3d bad = X;
+  for (Index v = 0; v < bad.rows(); ++v)
+    if (parts.vertex_part[v] == 2) bad(v, 1) += 1.0;  // y is not periodic
+  EXPECT_THROW(D.set_rest_vertices(bad, 2), InvalidInputError);
+  bad = X;
+  bad(7, 0) = std::numeric_limits<double>::quiet_NaN();
+  try {
+    D.set_rest_vertices(bad, 2);
+    ADD_FAILURE() << "a NaN was taken";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("finite"), std::string::npos) << e.what();
+  }
+  check("after the refusals", 2);
+  // A part so far along the periodic axis that the volumes might overflow: summed at
+  // once by the whole move (RestVolumeBoundSumsAtOnceWhereItMightOverflow), as a
+  // fresh Deformer does. The distance is a whole number of periods, 7 x 2^330: every
+  // vertex of the part rounds to it and wraps to the seam exactly, with or without
+  // fused multiply-adds (at other distances that far the wrap's remainder is rounding).
+  for (Index v = 0; v < X.rows(); ++v)
+    if (parts.vertex_part[v] == 0) X(v, 0) += std::ldexp(7.0, 330);
+  D.set_rest_vertices(X, 2);
+  EXPECT_TRUE(D.rest_volume_known());
+  EXPECT_EQ(D.rest_part_volumes(), Deformer(X, m.F, L, OutsidePolicy::Error, 1, &parts).rest_part_volumes());
+}
+
 TEST(MovingRest, RestVolumeWaitsForItsFirstUseAndIsTheEagerSum) {
   const TriMesh m = icosphere(3);
   const Lattice L = lattice_around(m.V, {6, 6, 6}, 3, 0.4);

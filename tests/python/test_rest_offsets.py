@@ -126,10 +126,10 @@ def test_periodic_ring_offsets_wrap_as_positions():
 
 @pytest.mark.parametrize("seam", ["closed", "twist"])
 def test_moving_some_parts_equals_moving_all(seam):
-    # Five spheres on a periodic lattice; each move changes some parts' offsets and
-    # keeps the others' bit for bit: only the changed parts are embedded again
-    # (Deformer::move_parts, over half of the vertices: the whole move). Every state
-    # must give the frames of set_rest_vertices(base + offsets).
+    # Five spheres on a periodic lattice; each move changes some parts' offsets (a) or
+    # rows (b) and keeps the others' bit for bit: only the changed parts are embedded
+    # again (Deformer::move_parts; over half of the vertices: the whole move). Every
+    # state must give the frames of a Deformer built on the moved mesh.
     s = shapes.icosphere(3)
     n = 5
     V = np.concatenate([0.3 * s.vertices + [-1.2 + 0.6 * k, 0.05 * k, -0.04 * k] for k in range(n)])
@@ -145,9 +145,12 @@ def test_moving_some_parts_equals_moving_all(seam):
             O[k] = [0.37 * (step + 1) * (-1) ** k, 0.02 * step, -0.01 * k]
         a.set_rest_offsets(O)
         X = mesh.vertices + O[labels]
-        b.set_rest_vertices(X)
+        b.set_rest_vertices(X)  # the same parts' rows change: only those are embedded too
         assert np.array_equal(a.rest_vertices, X), (step, moved)
         _same_frames(a, b, P, target=a.rest_part_volumes)
+        fresh = vpffd.Deformer(vpffd.Mesh(X, mesh.faces), lat, backend="serial", parts=labels)
+        assert np.array_equal(b.rest_part_volumes, fresh.rest_part_volumes)
+        _same_frames(b, fresh, P, target=b.rest_part_volumes)
 
 
 @pytest.mark.filterwarnings("ignore:deform. the mesh is not closed")

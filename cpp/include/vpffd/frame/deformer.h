@@ -80,7 +80,9 @@ class Deformer {
   /// built on it would (same embedding, processing order, rest volumes; the same
   /// results bit for bit). The faces, their checks and the parts are kept, and X
   /// becomes the base of later set_rest_offsets. The rest volumes are summed on first use (frame/rest_volume.h). Not to be called while a
-  /// frame runs on this Deformer.
+  /// frame runs on this Deformer. With parts, those whose rows of X are their rest
+  /// positions, bit for bit, keep their embedding: where at most half of the vertices
+  /// move, only the moved parts are embedded (reposition_parts).
   /// @param[in] X  #V x 3 new rest vertices
   /// @throws InvalidInputError for a wrong shape, non-finite coordinates, or vertices
   ///         outside the lattice box (unless built with OutsidePolicy::Extrapolate);
@@ -89,7 +91,8 @@ class Deformer {
     VPFFD_CHECK(X.rows() == n_vertices(), "set_rest_vertices: ", X.rows(), " vertices, the mesh has ", n_vertices(),
                 " (the faces stay; give every vertex a new position)");
     try {
-      embed_rest(X, threads, "set_rest_vertices");
+      // Parts whose rows of X are their rest positions keep their embedding.
+      if (!(has_parts_ && reposition_parts(X, threads))) embed_rest(X, threads, "set_rest_vertices");
       base_.resize(0, 3);  // later offsets move from X
       offsets_.resize(0, 3);
     } catch (const InvalidInputError&) {
@@ -126,7 +129,7 @@ class Deformer {
     const bool first = base_.rows() == 0;
     // Parts whose offset is the one they have (bit for bit) keep their vertices, cells
     // and embedding: a move of some parts only re-embeds those (move_parts).
-    if (!first && has_parts_ && offsets_.rows() == offsets.rows() && move_parts(offsets, threads)) return;
+    if (!first && has_parts_ && offsets_.rows() == offsets.rows() && offset_parts(offsets, threads)) return;
     if (first) base_ = V_;  // V_'s rest volumes (known or not) are then the base's too
     RowMatrixX3d& X = spare_rest_;
     X.resize(n_vertices(), 3);
@@ -561,38 +564,32 @@ class Deformer {
     }
   }
 
-  /// set_rest_offsets where only some parts' offsets differ from those of the last
-  /// offset move (bit for bit): the other parts keep their rest positions, cells,
-  /// places in the processing order and embedding, and only the moved ones are
-  /// embedded again, each into its own range of the order (a part's vertices are
-  /// together there, sorted by cell and then by vertex, which sorting a part alone
-  /// reproduces). The state is then that of the whole move, bit for bit. Costs the
-  /// moved parts' vertices plus the cell runs of the whole mesh: a car driving over a
-  /// terrain that other parts share, or one object dragged among many.
+  /// Each part's vertices in ascending order (part_vertices_, a stable sort by part)
+  /// and where each part's begin (part_vertex_start_), made on first use.
+  void index_part_vertices(int threads) {
+    if (!part_vertices_.empty()) return;
+    const int K = parts_.count;
+    part_vertices_ = counting_sort(parts_.vertex_part, K, threads);
+    part_vertex_start_.assign(K + 1, 0);
+    for (std::int32_t k : parts_.vertex_part) ++part_vertex_start_[k + 1];
+    for (int k = 0; k < K; ++k) part_vertex_start_[k + 1] += part_vertex_start_[k];
+  }
+
+  /// A move of some parts only (set_rest_offsets, set_rest_vertices): the parts in
+  /// `moved` (n_moved vertices) go to position(k, v, a) (part k, vertex v, axis a); the
+  /// others keep their rest positions, cells, places in the processing order and
+  /// embedding. Only the moved ones are embedded again, each into its own range of
+  /// the order (a part's vertices are together there, sorted by cell and then by
+  /// vertex, which sorting a part alone reproduces), so the state is that of the
+  /// whole move, bit for bit, but for what the caller sets: the offsets and the rest
+  /// volumes. Costs the moved parts' vertices plus the cell runs of the whole mesh: a
+  /// car driving over a terrain that other parts share, or one object dragged among
+  /// many.
   /// @returns false, having changed nothing, where the whole move is as cheap (over
   ///          half of the vertices moved) or a moved part is refused (the whole move
   ///          then throws its error, which names every part outside)
-  bool move_parts(const Eigen::Ref<const RowMatrixX3d>& offsets, int threads) {
-    const int K = parts_.count;
-    if (part_vertices_.empty()) {
-      // Each part's vertices in ascending order (a stable sort by part), once.
-      part_vertices_ = counting_sort(parts_.vertex_part, K, threads);
-      part_vertex_start_.assign(K + 1, 0);
-      for (std::int32_t k : parts_.vertex_part) ++part_vertex_start_[k + 1];
-      for (int k = 0; k < K; ++k) part_vertex_start_[k + 1] += part_vertex_start_[k];
-    }
-    std::vector<int> moved;
-    Index n_moved = 0;
-    for (int k = 0; k < K; ++k)
-      for (int a = 0; a < 3; ++a) {
-        const double o = offsets(k, a), was = offsets_(k, a);
-        if (std::memcmp(&o, &was, sizeof o) != 0) {
-          moved.push_back(k);
-          n_moved += part_vertex_start_[k + 1] - part_vertex_start_[k];
-          break;
-        }
-      }
-    if (moved.empty()) return true;  // the whole move would compute the state there is
+  template <class Position>
+  bool move_parts(const std::vector<int>& moved, Index n_moved, Position&& position, int threads) {
     if (2 * n_moved > n_vertices()) return false;
     // Each moved part: its positions (in ascending vertex order), their cells (the
     // check of the whole move), its new order within the part and its embedding.
@@ -615,7 +612,7 @@ class Deformer {
         Part& P = parts[q];
         P.X.resize(m, 3);
         for (Index i = 0; i < m; ++i)
-          for (int a = 0; a < 3; ++a) P.X(i, a) = base_(part_vertices_[b + i], a) + offsets(k, a);
+          for (int a = 0; a < 3; ++a) P.X(i, a) = position(k, Index(part_vertices_[b + i]), a);
         try {
           embed_cells(lattice_, P.X, policy_, P.cell, inner, "vertex");
         } catch (const InvalidInputError&) {
@@ -649,7 +646,6 @@ class Deformer {
       std::lock_guard<std::mutex> lock(face_matrix_mutex_);
       face_matrix_.reset();  // built from the old embedding
     }
-    volumes_of_base_ = true;  // as the whole move (the parts' volumes are translations')
     for (size_t q = 0; q < moved.size(); ++q) {
       const Index b = part_vertex_start_[moved[q]], s = part_start_[moved[q]];
       const Part& P = parts[q];
@@ -674,7 +670,59 @@ class Deformer {
     }
     set_runs(threads);
     set_seam_shifts(V_);
+    return true;
+  }
+
+  /// set_rest_offsets through move_parts where only some parts' offsets differ from
+  /// those of the last offset move (bit for bit). False: not taken (as move_parts).
+  bool offset_parts(const Eigen::Ref<const RowMatrixX3d>& offsets, int threads) {
+    index_part_vertices(threads);
+    std::vector<int> moved;
+    Index n_moved = 0;
+    for (int k = 0; k < parts_.count; ++k)
+      for (int a = 0; a < 3; ++a) {
+        const double o = offsets(k, a), was = offsets_(k, a);
+        if (std::memcmp(&o, &was, sizeof o) != 0) {
+          moved.push_back(k);
+          n_moved += part_vertex_start_[k + 1] - part_vertex_start_[k];
+          break;
+        }
+      }
+    if (moved.empty()) return true;  // the whole move would compute the state there is
+    if (!move_parts(moved, n_moved, [&](int k, Index v, int a) { return base_(v, a) + offsets(k, a); }, threads))
+      return false;
+    volumes_of_base_ = true;  // as the whole move: the parts' volumes are translations'
     offsets_ = offsets;
+    return true;
+  }
+
+  /// set_rest_vertices through move_parts where only some parts' rows of X differ from
+  /// the rest positions (bit for bit; each part is read until its first difference,
+  /// so a move of every part costs a row per part here). The rest volumes are those
+  /// of X, summed on first use, as after the whole move. False: not taken.
+  bool reposition_parts(const Eigen::Ref<const RowMatrixX3d>& X, int threads) {
+    index_part_vertices(threads);
+    std::vector<int> moved;
+    Index n_moved = 0;
+    for (int k = 0; k < parts_.count; ++k) {
+      const Index b = part_vertex_start_[k], e = part_vertex_start_[k + 1];
+      for (Index i = b; i < e; ++i) {
+        const Index v = part_vertices_[i];
+        const double x[3] = {X(v, 0), X(v, 1), X(v, 2)}, was[3] = {V_(v, 0), V_(v, 1), V_(v, 2)};
+        if (std::memcmp(x, was, sizeof x) != 0) {
+          moved.push_back(k);
+          n_moved += e - b;
+          break;
+        }
+      }
+      if (2 * n_moved > n_vertices()) return false;  // the whole move is as cheap
+    }
+    // Volumes that might overflow are summed, and refused, by the whole move.
+    if (!rest_volume_stays_finite(lattice_, F_.rows(), X, threads)) return false;
+    if (!moved.empty() && !move_parts(moved, n_moved, [&](int, Index v, int a) { return X(v, a); }, threads))
+      return false;
+    rest_volumes_.reset(RestVolumes{}, false);  // of X, on first use
+    volumes_of_base_ = false;
     return true;
   }
 
