@@ -101,6 +101,17 @@ TriMesh sphere_row(int n, int level = 2) {
 
 TriMesh two_spheres() { return sphere_row(2); }
 
+/// f() must be refused with an InvalidInputError whose message names `word`.
+template <class F>
+void expect_refusal_naming(F&& f, const char* word) {
+  try {
+    f();
+    ADD_FAILURE() << "taken, not refused";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+  }
+}
+
 Lattice shift_seam_lattice() {
   return make_lattice(Vector3d(-1.5, -1.5, -1.5), Vector3d(5.5, 1.5, 1.5), {8, 4, 4}, {3, 2, 2},
                       {Seam::Shift, Seam::None, Seam::None});
@@ -436,12 +447,7 @@ TEST(MovingRest, OffsetsOfSomePartsEqualTheWholeMove) {
   // A moved part refused: the whole move's error (naming the part), nothing changed.
   RowMatrixX3d bad = O;
   bad(3, 1) = 1.0;  // y is not periodic: the sphere leaves the box
-  try {
-    D.set_rest_offsets(bad, 2);
-    ADD_FAILURE() << "a sphere outside the box was taken";
-  } catch (const InvalidInputError& e) {
-    EXPECT_NE(std::string(e.what()).find("part"), std::string::npos) << e.what();
-  }
+  expect_refusal_naming([&] { D.set_rest_offsets(bad, 2); }, "part");
   check("after the refusal", 2);
   // Parts large enough that the moved ones are embedded side by side on threads
   // (parallel_items: over kParallelMin vertices moved): the same state.
@@ -508,12 +514,7 @@ TEST(MovingRest, PositionsOfSomePartsEqualTheWholeMove) {
   EXPECT_THROW(D.set_rest_vertices(bad, 2), InvalidInputError);
   bad = X;
   bad(7, 0) = std::numeric_limits<double>::quiet_NaN();
-  try {
-    D.set_rest_vertices(bad, 2);
-    ADD_FAILURE() << "a NaN was taken";
-  } catch (const InvalidInputError& e) {
-    EXPECT_NE(std::string(e.what()).find("finite"), std::string::npos) << e.what();
-  }
+  expect_refusal_naming([&] { D.set_rest_vertices(bad, 2); }, "finite");
   check("after the refusals", 2);
   // A part so far along the periodic axis that the volumes might overflow: summed at
   // once by the whole move (RestVolumeBoundSumsAtOnceWhereItMightOverflow), as a
