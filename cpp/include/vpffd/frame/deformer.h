@@ -15,6 +15,7 @@
 /// rings), its plan() and its frame loop share that private state; the constraint
 /// helpers and the plan's type live in correction/ (constraints.h, plan.h).
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <exception>
@@ -308,8 +309,7 @@ class Deformer {
       bytes += double(rings_.indptr.size() + rings_.pairs.size() + adjacency_order_.size()) * per_int +
                double(fans_.bytes());
     }
-    bytes += double(spare_cells_.size() + part_vertices_.size()) * per_int +
-             double(part_vertex_start_.size()) * sizeof(Index);
+    bytes += double(spare_cells_.size() + part_vertices_.size()) * per_int;
     bytes += double(n_vertices() + spare_embedding_.size()) * Embedding::bytes_per_point;
     bytes += double(runs_.bytes());
     return bytes / double(n_vertices());
@@ -478,10 +478,7 @@ class Deformer {
     }
     if (!volume_base) rest_volumes_.reset(std::move(rest), eager);
     volumes_of_base_ = volume_base != nullptr;
-    {
-      std::lock_guard<std::mutex> lock(face_matrix_mutex_);
-      face_matrix_.reset();  // built from the old embedding
-    }
+    forget_face_matrix();
     // Frames run in cell order (vertex_order.h); the faces are renumbered to match (below).
     std::vector<std::int32_t> order =
         counting_sort(cell, Index(tables_.dims[0]) * tables_.dims[1] * tables_.dims[2], threads);
@@ -521,10 +518,7 @@ class Deformer {
     // thread, a face pass over cell-sorted vertices: 163k-vertex icosphere 1.35 ms
     // sorted against 1.25 unsorted, dragon 3.76 against 3.95), and a fixed order needs
     // no re-sort when the rest mesh moves.
-    {
-      std::lock_guard<std::mutex> lock(faces_mutex_);
-      faces_stale_ = true;
-    }
+    forget_processing_numbering();
     // A closed mesh's weights come from the fans (half the reads); an open one's
     // cone weights need the pairs (VertexFans' separators add zero only with b = p_v).
     // Both are built once, in the mesh's own numbering (from F_ in its face order, so
@@ -558,21 +552,32 @@ class Deformer {
     }
     set_seam_shifts(V);
     part_start_.swap(part_start);
-    {
-      std::lock_guard<std::mutex> lock(adjacency_mutex_);
-      adjacency_.reset();  // of the old faces' numbering
-    }
   }
 
-  /// Each part's vertices in ascending order (part_vertices_, a stable sort by part)
-  /// and where each part's begin (part_vertex_start_), made on first use.
+  /// The CSR face matrix (method="csr") is built from the embedding: after a move it
+  /// is built again when next needed.
+  void forget_face_matrix() {
+    std::lock_guard<std::mutex> lock(face_matrix_mutex_);
+    face_matrix_.reset();
+  }
+
+  /// What is numbered by processing position and rebuilt when next needed, after a
+  /// move changed the processing order: the renumbered faces (processing_faces) and
+  /// their vertex-face lists. (The fans and rings are relabelled instead:
+  /// adjacency_order_, sync_adjacency.)
+  void forget_processing_numbering() {
+    {
+      std::lock_guard<std::mutex> lock(faces_mutex_);
+      faces_stale_ = true;
+    }
+    std::lock_guard<std::mutex> lock(adjacency_mutex_);
+    adjacency_.reset();
+  }
+
+  /// Each part's vertices in ascending order (a stable sort by part), made on first
+  /// use: part k's are [part_start_[k], part_start_[k+1]), as in the processing order.
   void index_part_vertices(int threads) {
-    if (!part_vertices_.empty()) return;
-    const int K = parts_.count;
-    part_vertices_ = counting_sort(parts_.vertex_part, K, threads);
-    part_vertex_start_.assign(K + 1, 0);
-    for (std::int32_t k : parts_.vertex_part) ++part_vertex_start_[k + 1];
-    for (int k = 0; k < K; ++k) part_vertex_start_[k + 1] += part_vertex_start_[k];
+    if (part_vertices_.empty()) part_vertices_ = counting_sort(parts_.vertex_part, parts_.count, threads);
   }
 
   /// A move of some parts only (set_rest_offsets, set_rest_vertices): the parts in
@@ -594,8 +599,8 @@ class Deformer {
     // Each moved part: its positions (in ascending vertex order), their cells (the
     // check of the whole move), its new order within the part and its embedding.
     struct Part {
-      RowMatrixX3d X;
-      std::vector<std::int32_t> cell, order;
+      RowMatrixX3d X;                         ///< in ascending vertex order
+      std::vector<std::int32_t> cell, order;  ///< order: its vertices in processing order
       Embedding E;
     };
     std::vector<Part> parts(moved.size());
@@ -608,7 +613,7 @@ class Deformer {
     parallel_items(Index(moved.size()), n_moved, threads, [&](Index q) {
       try {
         const int k = moved[q];
-        const Index b = part_vertex_start_[k], m = part_vertex_start_[k + 1] - b;
+        const Index b = part_start_[k], m = part_start_[k + 1] - b;
         Part& P = parts[q];
         P.X.resize(m, 3);
         for (Index i = 0; i < m; ++i)
@@ -621,6 +626,7 @@ class Deformer {
         }
         P.order = counting_sort(P.cell, n_cells, inner);
         embed_into(lattice_, P.X, policy_, P.E, inner, "vertex", P.order.data());
+        for (std::int32_t& i : P.order) i = part_vertices_[b + i];  // rows of X -> vertices
       } catch (...) {
         error[q] = std::current_exception();
       }
@@ -630,11 +636,8 @@ class Deformer {
     for (char r : refused)
       if (r) return false;
     bool reordered = false;
-    for (size_t q = 0; q < moved.size() && !reordered; ++q) {
-      const Index b = part_vertex_start_[moved[q]], s = part_start_[moved[q]];
-      for (Index i = 0; i < Index(parts[q].order.size()) && !reordered; ++i)
-        reordered = order_[s + i] != part_vertices_[b + parts[q].order[i]];
-    }
+    for (size_t q = 0; q < moved.size() && !reordered; ++q)
+      reordered = !std::equal(parts[q].order.begin(), parts[q].order.end(), order_.begin() + part_start_[moved[q]]);
     if (reordered) {
       // The fans' and rings' labels are of the order before this move, unless they
       // were of an earlier one still (embed_rest).
@@ -642,16 +645,13 @@ class Deformer {
       if (adjacency_order_.empty()) adjacency_order_ = order_;
     }
     // Nothing below throws: the Deformer's state is replaced from here on.
-    {
-      std::lock_guard<std::mutex> lock(face_matrix_mutex_);
-      face_matrix_.reset();  // built from the old embedding
-    }
+    forget_face_matrix();
     for (size_t q = 0; q < moved.size(); ++q) {
-      const Index b = part_vertex_start_[moved[q]], s = part_start_[moved[q]];
+      const Index s = part_start_[moved[q]];
       const Part& P = parts[q];
       for (Index i = 0; i < P.X.rows(); ++i) {
-        const std::int32_t v = part_vertices_[b + P.order[i]];
-        V_.row(part_vertices_[b + i]) = P.X.row(i);
+        const std::int32_t v = P.order[i];
+        V_.row(part_vertices_[s + i]) = P.X.row(i);
         order_[s + i] = v;
         rank_[v] = static_cast<std::int32_t>(s + i);
       }
@@ -660,14 +660,7 @@ class Deformer {
         std::copy(P.E.tau[a].begin(), P.E.tau[a].end(), embedding_.tau[a].begin() + s);
       }
     }
-    if (reordered) {
-      {
-        std::lock_guard<std::mutex> lock(faces_mutex_);
-        faces_stale_ = true;
-      }
-      std::lock_guard<std::mutex> lock(adjacency_mutex_);
-      adjacency_.reset();  // of the old faces' numbering
-    }
+    if (reordered) forget_processing_numbering();
     set_runs(threads);
     set_seam_shifts(V_);
     return true;
@@ -684,7 +677,7 @@ class Deformer {
         const double o = offsets(k, a), was = offsets_(k, a);
         if (std::memcmp(&o, &was, sizeof o) != 0) {
           moved.push_back(k);
-          n_moved += part_vertex_start_[k + 1] - part_vertex_start_[k];
+          n_moved += part_start_[k + 1] - part_start_[k];
           break;
         }
       }
@@ -705,7 +698,7 @@ class Deformer {
     std::vector<int> moved;
     Index n_moved = 0;
     for (int k = 0; k < parts_.count; ++k) {
-      const Index b = part_vertex_start_[k], e = part_vertex_start_[k + 1];
+      const Index b = part_start_[k], e = part_start_[k + 1];
       for (Index i = b; i < e; ++i) {
         const Index v = part_vertices_[i];
         const double x[3] = {X(v, 0), X(v, 1), X(v, 2)}, was[3] = {V_(v, 0), V_(v, 1), V_(v, 2)};
@@ -998,8 +991,7 @@ class Deformer {
   RowMatrixX3d base_;                ///< set_rest_offsets' base positions (empty before its first move)
   RowMatrixX3d spare_rest_;          ///< set_rest_offsets' buffer for the moved positions
   RowMatrixX3d offsets_;             ///< the last set_rest_offsets' offsets (empty before it, and after set_rest_vertices)
-  std::vector<std::int32_t> part_vertices_;  ///< move_parts: each part's vertices, ascending (empty before its first use)
-  std::vector<Index> part_vertex_start_;     ///< K + 1: part k's in part_vertices_
+  std::vector<std::int32_t> part_vertices_;  ///< move_parts: each part's vertices, ascending, in part_start_'s ranges
   bool volumes_of_base_ = false;     ///< the rest volumes are base_'s (a translation of V_)
   bool has_parts_ = false;
   MeshParts parts_;                  ///< count 1 and no labels without parts
