@@ -67,3 +67,19 @@ def test_an_unknown_move_is_refused(bench_motion):
     with pytest.raises(ValueError, match="move"):
         bench_motion.measure(mesh, lat, lat.control_points, animate.PathOffset(lat, "x", speed=0.1), "serial",
                              None, 2, False, "teleport")
+
+
+def test_bench_move_parts_prints_each_case(load_bench, capsys, tmp_path):
+    # The table's rows on a tiny shoal: per thread count, offsets (1, 1 with the whole
+    # move forced, 4 of 4) and positions (1, 4 of 4), each with a finite cost (printed
+    # to 0.01 ms: a fast machine may print 0.00 for this shoal).
+    bench = load_bench("bench_move_parts")
+    md = tmp_path / "t.md"
+    bench.main(["--fish", "4", "--fish-size", "24", "16", "--frames", "2", "--md", str(md)])
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ") and line[2].isdigit()]
+    assert len(rows) == 5 * (2 if vpffd._core.has_openmp() else 1)
+    assert sum("whole move forced" in r for r in rows) == len(rows) // 5
+    for row in rows:
+        move, frame = (float(x) for x in row.strip("| ").split("|")[3:5])
+        assert move >= 0 and frame >= 0
+    assert md.read_text().count("\n| ") == len(rows) + 1
