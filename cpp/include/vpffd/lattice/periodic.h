@@ -131,7 +131,12 @@ inline Vector3d wrap_point(const Lattice& L, Vector3d x, bool* mirrored = nullpt
     if (!L.periodic(a) || !std::isfinite(x[a])) continue;
     const double lo = L.box_min[a], ext = L.box_max[a] - L.box_min[a];
     double turns = std::floor((x[a] - lo) / ext);
-    double y = x[a] - turns * ext;
+    // One rounding on every build. Left to the compiler, an FMA build fuses this
+    // multiply-subtract and a baseline build rounds the product first: the wrapped
+    // point's last bit, and far along the axis (~1e19 box extents, where the
+    // remainder is all rounding) whether the embedding refuses it as too far, would
+    // depend on the build. std::fma is what FMA builds computed before.
+    double y = std::fma(-turns, ext, x[a]);
     // Rounding can leave y a hair outside [lo, lo + ext).
     if (y >= L.box_max[a]) {
       y -= ext;
