@@ -2,7 +2,9 @@
 choice in backends.py, the frame's result in result.py)."""
 from __future__ import annotations
 
+import functools
 import os
+import threading
 import warnings
 import weakref
 
@@ -15,6 +17,7 @@ from . import local_weights as _local_weights
 from .lattice import Lattice, _check_memory
 from .backends import (AUTO_GPU_MIN_VERTICES, _requested_precision, _resolve_backend,  # noqa: F401
                        available_backends, vulkan_devices)
+from ._rest_lock import RestLock
 from .mesh import Mesh
 from .result import DeformResult, RestVolumeSource
 
@@ -34,6 +37,24 @@ _BYTES_PER_VERTEX = 256
 # With K parts an axis step holds K coefficient rows of N doubles, and the solve copies
 # them into its scaled and weighted rows: three K x N arrays of doubles.
 _FRAME_BYTES_PER_CONTROL_POINT_AND_PART = 24
+
+
+def _frame(method):
+    """A method that reads the rest state: runs beside other frames, never during a move."""
+    @functools.wraps(method)
+    def held(self, *args, **kwargs):
+        with self._rest_lock.shared():
+            return method(self, *args, **kwargs)
+    return held
+
+
+def _move(method):
+    """A method that moves the rest mesh: waits for the frames in flight and runs alone."""
+    @functools.wraps(method)
+    def held(self, *args, **kwargs):
+        with self._rest_lock.exclusive():
+            return method(self, *args, **kwargs)
+    return held
 
 
 def _part_labels(parts, n_vertices: int):
@@ -58,6 +79,14 @@ class Deformer:
     Construction embeds the mesh once (a knot span and a local parameter per
     vertex and axis, 36 bytes per vertex); every ``deform`` call then costs one
     FFD plus, per corrected axis, one pass over the faces and two over the vertices.
+
+    Threads: one Deformer may be shared by any number of threads on every backend.
+    Frames (``ffd``, ``deform``, ``jacobians``, ``check_folds``, ...) release the GIL
+    and run side by side (on "vulkan" the device runs them one at a time); a move of
+    the rest mesh (``set_rest_vertices``, ``set_rest_offsets``) waits for the frames in
+    flight, holds back new ones and runs alone, so every frame is that of the rest
+    mesh before the move or of the one after it, bit for bit, never a mix. A move
+    called from inside a frame on the same thread (a callback) raises RuntimeError.
 
     Parameters
     ----------
@@ -109,6 +138,8 @@ class Deformer:
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice: expected a vpffd.Lattice, got {type(lattice).__name__}")
         precision = _requested_precision(gpu_precision)
+        self._rest_lock = RestLock()
+        self._mesh_lock = threading.Lock()  # the moved Mesh, made when first read
         self._mesh = Mesh.from_any(mesh)
         # set_rest_offsets: the base positions it moves from (None before its first
         # move), and the offsets of the last move while `_mesh` waits to become the
@@ -165,18 +196,20 @@ class Deformer:
                 pass
 
     @property
+    @_frame
     def mesh(self) -> Mesh:
         """The rest mesh: after ``set_rest_vertices`` or ``set_rest_offsets`` a new Mesh
         with the moved vertices and the same faces (a Mesh object held elsewhere is
         unchanged)."""
-        if self._pending_offsets is not None:
-            O = self._pending_offsets
-            parts = self._core.vertex_parts if self._core.has_parts else None
-            # The core's own sum (base + offset, one rounding): the same bits.
-            X = self._base + (O[parts] if parts is not None else O[0])
-            self._mesh = self._mesh._with_vertices(X)
-            self._pending_offsets = None
-        return self._mesh
+        with self._mesh_lock:
+            if self._pending_offsets is not None:
+                O = self._pending_offsets
+                parts = self._core.vertex_parts if self._core.has_parts else None
+                # The core's own sum (base + offset, one rounding): the same bits.
+                X = self._base + (O[parts] if parts is not None else O[0])
+                self._mesh = self._mesh._with_vertices(X)
+                self._pending_offsets = None
+            return self._mesh
 
     @property
     def _holder(self):
@@ -191,6 +224,7 @@ class Deformer:
 
     # --- properties -----------------------------------------------------------
     @property
+    @_frame
     def rest_volume(self) -> float:
         """Volume of the rest mesh (raises for an open mesh); after a move summed on first use."""
         return self._holder.rest_volume()
@@ -219,12 +253,14 @@ class Deformer:
         return self._core.vertex_parts if self._core.has_parts else None
 
     @property
+    @_frame
     def rest_part_volumes(self):
         """(K,) float64 the volume of each part of the rest mesh; None without parts."""
         if not self._core.has_parts:
             return None
         return self._vk.rest_part_volumes() if self._vk is not None else self._core.rest_part_volumes()
 
+    @_move
     def set_rest_vertices(self, vertices) -> None:
         """Moves the rest mesh: the next frame deforms ``vertices`` (V, 3) (same faces)
         exactly as a Deformer built on that mesh would: new embedding, processing
@@ -272,6 +308,7 @@ class Deformer:
         self._base = None
         self._mesh = self._mesh._with_vertices(X)
 
+    @_move
     def set_rest_offsets(self, offsets) -> None:
         """Moves the rest mesh by translations: each part's vertices (with ``parts``;
         the whole mesh's without) to their base positions plus the part's offset. The
@@ -358,14 +395,17 @@ class Deformer:
     def _P(self, control_points):
         return self.lattice._control(control_points)
 
+    @_frame
     def ffd(self, control_points=None) -> np.ndarray:
         """Plain FFD of the vertices: (V, 3). ``control_points`` default to the lattice's."""
         return self._d.ffd(self._P(control_points), self._threads)
 
+    @_frame
     def jacobians(self, control_points=None) -> np.ndarray:
         """(V, 3, 3) Jacobians dD/dx at the vertices (J[v, r, c] = dD_r/dx_c)."""
         return self._d.jacobians(self._P(control_points), self._threads).reshape(-1, 3, 3)
 
+    @_frame
     def jacobian_determinants(self, control_points=None) -> np.ndarray:
         """(V,) det J at the vertices: the local volume ratio of the FFD (below 1
         compressed, above 1 expanded, <= 0 folded); ``np.linalg.det(jacobians(P))``
@@ -378,11 +418,13 @@ class Deformer:
         ones of a periodic lattice; refused with a "shift" seam, where the map is affine)."""
         return self.lattice._linear_basis(self._extended_basis(), "Deformer.basis_matrix")
 
+    @_frame
     def _extended_basis(self) -> sp.csr_matrix:
         """(V, N_ext) basis matrix over the extended lattice (== basis_matrix() without periodic axes)."""
         data, indices, indptr, shape = self._d.basis_matrix(self._threads)
         return sp.csr_matrix((data, indices, indptr), shape=shape)
 
+    @_frame
     def face_matrix(self) -> sp.csr_matrix:
         """(N, F) the paper's coefficient matrix: alpha = M @ n_x, n_x the x
         components of the unnormalised face normals (Section 6.2). Periodic lattice:
@@ -391,10 +433,12 @@ class Deformer:
         M = sp.csr_matrix((data, indices, indptr), shape=shape)
         return (self.lattice._fold_matrix().T @ M).tocsr() if self.lattice.periodic else M
 
+    @_frame
     def face_matrix_nnz(self) -> int:
         """Non-zeros of the paper's face matrix (its Table 1); builds it once."""
         return self._d.face_matrix_nnz(self._threads)
 
+    @_frame
     def volume_coefficients(self, vertices, axis, method: str = "traversal"):
         """(alpha, volume): the N coefficients of ``axis`` ('x', 'y', 'z' or 0..2) for
         the mesh with the given current vertices (V, 3), and its volume. Moving the
@@ -406,6 +450,7 @@ class Deformer:
             alpha = self.lattice._fold_matrix().T @ alpha
         return alpha, volume
 
+    @_frame
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", weights=None,
                fixed=None, constraints=None, target_volume=None, method: str = "traversal",
                allow_open: bool = False, rounds: int = 1, on_fold: str = "ignore",
@@ -594,6 +639,7 @@ class Deformer:
             P, opts = self._last_frame
             self._vk.deform(P, opts, read_vertices=False)
 
+    @_frame
     def check_folds(self, control_points=None, depth: int = _folds.DEFAULT_DEPTH, threads=None):
         """Fold-over check of the lattice with ``control_points`` (default the
         lattice's; pass ``result.control_points`` for a corrected frame), plus det J

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import threading
 import warnings
 
 from . import _arrays, _core
@@ -308,6 +309,7 @@ class MultiresDeformer:
         self._deformer_args = dict(backend=self.backend, outside=outside, threads=dthreads, **gpu)
         self._base = Deformer(multires.base, lattice, **self._deformer_args)
         self._fine = None
+        self._fine_lock = threading.Lock()
         self._ffd = _core.MultiresFFD(multires._m, lattice._spec, self._threads) if self._vk is None else None
 
     @property
@@ -340,9 +342,10 @@ class MultiresDeformer:
         return _core.MultiresFFD.frame_bytes_per_vertex
 
     def _fine_deformer(self) -> Deformer:
-        if self._fine is None:
-            self._fine = Deformer(self.multires.mesh, self.lattice, **self._deformer_args)
-        return self._fine
+        with self._fine_lock:  # frames on several threads build it once
+            if self._fine is None:
+                self._fine = Deformer(self.multires.mesh, self.lattice, **self._deformer_args)
+            return self._fine
 
     def _base_ffd(self, Pc) -> np.ndarray:
         """The deformed base mesh for control points Pc (N, 3), on the CPU."""

@@ -14,6 +14,7 @@ namespace {
 /// The paper's face matrix with its columns in the mesh's own face order (Python's
 /// face_matrix: column j is face j of the caller's faces).
 CsrMatrix face_matrix_in_face_order(const Deformer& d, int threads) {
+  const auto frame = d.read_lock();  // A lives until the next move
   const CsrMatrix& A = d.face_matrix(threads);
   const std::vector<std::int32_t>& fo = d.face_processing_order();
   CsrMatrix B = A;
@@ -68,7 +69,12 @@ void bind_deformer(py::module_& m) {
           "Moves each part (the whole mesh without parts) by its row of offsets (K, 3) from the base "
           "positions (see vpffd::Deformer::set_rest_offsets).")
       .def_property_readonly("rest_is_offset", &Deformer::rest_is_offset)
-      .def_property_readonly("rest_vertices", &Deformer::rest_vertices, py::return_value_policy::copy)
+      .def_property_readonly("rest_vertices",
+                             [](const Deformer& d) {
+                               py::gil_scoped_release release;
+                               const auto frame = d.read_lock();  // no move during the copy
+                               return RowMatrixX3d(d.rest_vertices());
+                             })
       .def_property_readonly("has_parts", &Deformer::has_parts)
       .def_property_readonly("n_parts", &Deformer::n_parts)
       .def_property_readonly("part_labels", [](const Deformer& d) { return d.parts().labels; })
@@ -152,6 +158,7 @@ void bind_deformer(py::module_& m) {
           "face_matrix_nnz",
           [](const Deformer& d, int threads) {
             py::gil_scoped_release release;
+            const auto frame = d.read_lock();
             return d.face_matrix(threads).nnz();
           },
           py::arg("threads") = 0)

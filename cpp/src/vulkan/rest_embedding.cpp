@@ -434,10 +434,14 @@ void VulkanDeformer::set_rest_offsets(const Eigen::Ref<const RowMatrixX3d>& offs
   m.cpu_stale = true;
 }
 
-const RowMatrixX3d& VulkanDeformer::rest_vertices() const { return impl_->rest_positions(); }
+RowMatrixX3d VulkanDeformer::rest_vertices() const {
+  std::lock_guard<std::mutex> lock(impl_->frame_mutex);  // no move between the read and the copy
+  return impl_->rest_positions();
+}
 
 double VulkanDeformer::rest_volume(bool allow_open) const {
   if (!allow_open) require_closed(impl_->cpu->edges(), "rest_volume");
+  std::lock_guard<std::mutex> lock(impl_->frame_mutex);
   return impl_->rest_volumes().total;
 }
 

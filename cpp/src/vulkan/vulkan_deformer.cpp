@@ -76,6 +76,7 @@ std::uint64_t VulkanDeformer::index_buffer_handle() const {
 }
 const std::vector<std::int32_t>& VulkanDeformer::vertex_order() const { return impl_->slot; }
 VectorXd VulkanDeformer::rest_part_volumes() const {
+  std::lock_guard<std::mutex> lock(impl_->frame_mutex);
   const RestVolumes& v = impl_->rest_volumes();
   return impl_->K > 1 ? v.parts : VectorXd::Constant(1, v.total);
 }
@@ -98,6 +99,9 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   Impl& m = *this;
   const Deformer& cpu = *m.cpu;  // of the construction's rest mesh after a move: see plan_options
   const Index N = m.N;
+  // One rest state from the options' checks to the read back: a move (which takes
+  // this lock) waits for the frame, and the frame for it.
+  std::unique_lock<std::mutex> lock(m.frame_mutex);
   CorrectionOptions moved_opt;
   const CorrectionOptions& po = m.plan_options(opt, moved_opt);
 
@@ -145,7 +149,6 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   }
 
   // --- frame data ------------------------------------------------------------------------
-  std::unique_lock<std::mutex> lock(m.frame_mutex);
   m.begin();  // one-time uploads, submitted just before the frame
   bool aux = false;
   if (shape.mode == Shape::DeviceSteps) {

@@ -42,9 +42,13 @@
 /// 4.1e-7 of the diagonal and 7.0e-9 relative; the dragon's corrected volume is within
 /// 3e-11 (float64) and 9e-12 (float-float) of the target.
 ///
-/// Threads: deform(), vertices() and last_timings() may be called from several
-/// threads on one deformer; frames run one at a time, and each deform() returns its
-/// own frame's vertices and leaves its own timings.
+/// Threads: every public member may be called from several threads on one deformer,
+/// moves of the rest mesh (set_rest_vertices, set_rest_offsets) included. Frames run
+/// one at a time, each against one rest state from its options' checks to its read
+/// back (a move waits for the frame in flight), and each deform() returns its own
+/// frame's vertices and leaves its own timings. The reference cpu() returns is the
+/// CPU twin of the rest mesh at that call; its own members are safe beside moves
+/// (Deformer's rule), but it follows a later move only when cpu() is called again.
 ///
 /// Errors: a frame that fails (InvalidInputError, SolverError) leaves the device
 /// vertices (vertices(), vertex_buffer_handle()) those of the last frame that
@@ -193,8 +197,9 @@ class VulkanDeformer {
   ///         outside the box (unless OutsidePolicy::Extrapolate); the deformer is
   ///         unchanged then. DeviceError when a Vulkan call fails.
   void set_rest_offsets(const Eigen::Ref<const RowMatrixX3d>& offsets);
-  /// The current rest vertices (#V x 3, input order).
-  const RowMatrixX3d& rest_vertices() const;
+  /// The current rest vertices (#V x 3, input order; a copy, so that a move on another
+  /// thread cannot change it under the caller).
+  RowMatrixX3d rest_vertices() const;
   /// Enclosed volume of the current rest mesh, as Deformer::rest_volume.
   /// @throws InvalidInputError for an open mesh, unless `allow_open`
   double rest_volume(bool allow_open = false) const;

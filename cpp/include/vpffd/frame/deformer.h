@@ -11,6 +11,18 @@
 ///   auto r = d.deform(P, {});   // r.vertices, r.volume == d.rest_volume()
 /// @endcode
 ///
+/// Threads: every public member may be called from any number of threads at once,
+/// moves of the rest mesh (set_rest_vertices, set_rest_offsets) included. Frames
+/// (deform, plan, ffd, jacobians, jacobian_determinants, deformed_normals,
+/// basis_transpose, basis_matrix, volume_coefficients, rest volumes) run side by
+/// side; a move waits for the frames in flight and holds back new ones
+/// (core/rest_lock.h), so each frame sees the rest state before the move or after it,
+/// never a mix. Accessors that return references into the rest state
+/// (rest_vertices, base_vertices, processing_order, processing_embedding,
+/// processing_faces, processing_adjacency, face_matrix, part_start) are valid until
+/// the next move: a caller that may race with one holds read_lock() while it uses
+/// them.
+///
 /// Length: one class because its set-up (embedding, cell order, renumbered faces,
 /// rings), its plan() and its frame loop share that private state; the constraint
 /// helpers and the plan's type live in correction/ (constraints.h, plan.h).
@@ -21,8 +33,10 @@
 #include <exception>
 #include <memory>
 #include <mutex>
+#include <shared_mutex>
 #include <string>
 
+#include "vpffd/core/rest_lock.h"
 #include "vpffd/correction/constraints.h"
 #include "vpffd/correction/options.h"
 #include "vpffd/correction/plan.h"
@@ -57,7 +71,7 @@ class Deformer {
   ///         or parts that do not each bound a volume
   Deformer(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F, Lattice L,
            OutsidePolicy policy = OutsidePolicy::Error, int threads = 0, const MeshParts* parts = nullptr)
-      : lattice_(std::move(L)), F_(F), policy_(policy) {
+      : lattice_(std::move(L)), F_(F), policy_(policy), nv_(V.rows()) {
     validate_mesh(V, F_, "Deformer");
     validate_lattice(lattice_);
     ties_ = make_ties(lattice_);
@@ -80,8 +94,8 @@ class Deformer {
   /// Moves the rest mesh to X (same faces): the next frame deforms X as a Deformer
   /// built on it would (same embedding, processing order, rest volumes; the same
   /// results bit for bit). The faces, their checks and the parts are kept, and X
-  /// becomes the base of later set_rest_offsets. The rest volumes are summed on first use (frame/rest_volume.h). Not to be called while a
-  /// frame runs on this Deformer. With parts, those whose rows of X are their rest
+  /// becomes the base of later set_rest_offsets. The rest volumes are summed on first use (frame/rest_volume.h).
+  /// Safe beside frames on other threads: it waits for those in flight. With parts, those whose rows of X are their rest
   /// positions, bit for bit, keep their embedding: where at most half of the vertices
   /// move, only the moved parts are embedded (reposition_parts).
   /// @param[in] X  #V x 3 new rest vertices
@@ -91,6 +105,7 @@ class Deformer {
   void set_rest_vertices(const Eigen::Ref<const RowMatrixX3d>& X, int threads = 0) {
     VPFFD_CHECK(X.rows() == n_vertices(), "set_rest_vertices: ", X.rows(), " vertices, the mesh has ", n_vertices(),
                 " (the faces stay; give every vertex a new position)");
+    std::unique_lock<RestLock> moving(rest_lock_);  // waits for the frames in flight
     try {
       // Parts whose rows of X are their rest positions keep their embedding.
       if (!(has_parts_ && reposition_parts(X, threads))) embed_rest(X, threads, "set_rest_vertices");
@@ -127,6 +142,7 @@ class Deformer {
     for (Index k = 0; k < offsets.rows(); ++k)
       VPFFD_CHECK(offsets.row(k).allFinite(), "set_rest_offsets: offset ", k, " (", offsets(k, 0), ", ",
                   offsets(k, 1), ", ", offsets(k, 2), ") is not finite");
+    std::unique_lock<RestLock> moving(rest_lock_);  // waits for the frames in flight
     const bool first = base_.rows() == 0;
     // Parts whose offset is the one they have (bit for bit) keep their vertices, cells
     // and embedding: a move of some parts only re-embeds those (move_parts).
@@ -191,10 +207,14 @@ class Deformer {
   Deformer(const Deformer&) = delete;
   Deformer& operator=(const Deformer&) = delete;
 
+  /// Holds back moves of the rest mesh while the caller reads the references below
+  /// (frames take it themselves; taking it twice on one thread may deadlock).
+  std::shared_lock<RestLock> read_lock() const { return std::shared_lock<RestLock>(rest_lock_); }
+
   const Lattice& lattice() const { return lattice_; }
   const RowMatrixX3d& rest_vertices() const { return V_; }
   const RowMatrixX3i& faces() const { return F_; }
-  Index n_vertices() const { return V_.rows(); }
+  Index n_vertices() const { return nv_; }
   Index n_faces() const { return F_.rows(); }
   /// Control points a frame takes: the distinct ones of a periodic lattice.
   Index n_control_points() const { return ties_.n_distinct; }
@@ -203,7 +223,10 @@ class Deformer {
   const EdgeReport& edges() const { return edges_; }
   bool is_closed() const { return edges_.closed(); }
   /// Per-vertex basis data in the caller's vertex order (a copy).
-  Embedding embedding() const { return permute_embedding(embedding_, rank_); }
+  Embedding embedding() const {
+    std::shared_lock<RestLock> frame(rest_lock_);
+    return permute_embedding(embedding_, rank_);
+  }
   /// Processing order of the frames: position -> vertex index (sorted by cell).
   /// Other backends run in the same order with the three views below.
   const std::vector<std::int32_t>& processing_order() const { return order_; }
@@ -255,6 +278,7 @@ class Deformer {
   /// and then only when it is closed). @throws InvalidInputError for an open mesh
   VectorXd rest_part_volumes() const {
     if (!has_parts_) return VectorXd::Constant(1, rest_volume());
+    std::shared_lock<RestLock> frame(rest_lock_);
     return rest_volumes().parts;
   }
 
@@ -263,6 +287,7 @@ class Deformer {
   /// closed, unless `allow_open` (then: the cone volume from origin()).
   double rest_volume(bool allow_open = false) const {
     if (!allow_open) require_closed(edges_, "rest_volume");
+    std::shared_lock<RestLock> frame(rest_lock_);
     return rest_volumes().total;
   }
 
@@ -292,6 +317,7 @@ class Deformer {
   /// set_rest_offsets (the base positions and the buffer of the moved ones), and 4
   /// once it has moved only some parts (move_parts: each part's vertices).
   double bytes_per_vertex() const {
+    std::shared_lock<RestLock> frame(rest_lock_);
     const double per_int = sizeof(std::int32_t);
     double bytes = double(V_.size() + base_.size() + spare_rest_.size()) * sizeof(double) +
                    double(F_.size() + Fp_.size()) * per_int;
@@ -318,6 +344,7 @@ class Deformer {
   /// Plain FFD of the mesh vertices. @param P N x 3 control points. @returns #V x 3
   RowMatrixX3d ffd(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "ffd");
+    std::shared_lock<RestLock> frame(rest_lock_);
     RowMatrixX3d X(n_vertices(), 3);
     eval_ffd(P, X.data(), threads, order_.data());
     return X;
@@ -326,6 +353,7 @@ class Deformer {
   /// Jacobians dD/dx at the vertices: #V x 9, row-major 3x3 per vertex.
   RowMatrixXd jacobians(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "jacobians");
+    std::shared_lock<RestLock> frame(rest_lock_);
     const int twist = twist_axis(lattice_);
     RowMatrixXd J(n_vertices(), 9);
     for_each_jacobian(P, threads, [&](Index v, double* j) {
@@ -341,6 +369,7 @@ class Deformer {
   /// small buffer. (A twist seam's mirroring flips two columns: det is unchanged.)
   VectorXd jacobian_determinants(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
     check_control_points(P, "jacobian_determinants");
+    std::shared_lock<RestLock> frame(rest_lock_);
     VectorXd det(n_vertices());
     for_each_jacobian(P, threads, [&](Index v, double* j) {
       det[v] = j[0] * (j[4] * j[8] - j[5] * j[7]) - j[1] * (j[3] * j[8] - j[5] * j[6]) +
@@ -361,6 +390,7 @@ class Deformer {
     VPFFD_CHECK(N0.rows() == n_vertices(), "deformed_normals: ", N0.rows(), " rest normals for ", n_vertices(),
                 " vertices");
     VPFFD_CHECK(N0.allFinite(), "deformed_normals: the rest normals contain NaN or Inf");
+    std::shared_lock<RestLock> frame(rest_lock_);
     const int twist = twist_axis(lattice_);
     RowMatrixX3d N(n_vertices(), 3);
     for_each_jacobian(P, threads, [&](Index v, double* j) {
@@ -378,6 +408,7 @@ class Deformer {
   VectorXd basis_transpose(const Eigen::Ref<const VectorXd>& w, int threads = 0) const {
     VPFFD_CHECK(w.size() == n_vertices(), "basis_transpose: ", w.size(), " values for ", n_vertices(), " vertices");
     VPFFD_CHECK(w.allFinite(), "basis_transpose: the values contain NaN or Inf");
+    std::shared_lock<RestLock> frame(rest_lock_);
     const Index nv = n_vertices();
     const Index N = Index(tables_.dims[0]) * tables_.dims[1] * tables_.dims[2];
     const int chunks = detail::scatter_chunks(nv, N);
@@ -391,6 +422,7 @@ class Deformer {
 
   /// #V x N vertex basis matrix: ffd(P) == B * P.
   CsrMatrix basis_matrix(int threads = 0) const {
+    std::shared_lock<RestLock> frame(rest_lock_);
     return vertex_basis_matrix(tables_, permute_embedding(embedding_, rank_), threads);
   }
 
@@ -414,6 +446,7 @@ class Deformer {
     VPFFD_CHECK(X.rows() == n_vertices(), "volume_coefficients: X has ", X.rows(), " rows, expected ",
                 n_vertices());
     VPFFD_CHECK(axis >= 0 && axis < 3, "volume_coefficients: axis ", axis, " not in 0..2");
+    std::shared_lock<RestLock> frame(rest_lock_);
     RowMatrixX3d Xs(n_vertices(), 3);
     for (Index i = 0; i < n_vertices(); ++i) Xs.row(i) = X.row(order_[i]);
     return coefficients(Xs.data(), axis, method, threads);
@@ -426,9 +459,15 @@ class Deformer {
 
   /// Checks P and `opt` and prepares what any backend needs for the frame.
   /// @throws InvalidInputError with the same messages as deform()
-  FramePlan plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
+  FramePlan plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
+    std::shared_lock<RestLock> frame(rest_lock_);
+    return plan_locked(P, opt);
+  }
 
  private:
+  /// plan() with the rest lock held by the caller (deform()).
+  FramePlan plan_locked(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
+
   /// The rest volumes of V (the rest vertices or any others in their place): with
   /// parts each part's over its faces, their sum the total; one face pass either way.
   RestVolumes measure_rest(const Eigen::Ref<const RowMatrixX3d>& V, int threads, const char* where) const {
@@ -948,9 +987,11 @@ class Deformer {
   }
 
   Lattice lattice_;
+  mutable RestLock rest_lock_;  ///< frames shared, moves exclusive (see the class comment)
   RowMatrixX3d V_;
   RowMatrixX3i F_;
   OutsidePolicy policy_;
+  Index nv_;  ///< vertices (fixed: moves keep the mesh)
   Ties ties_;
   RowMatrixX3d seam_shift_;  ///< processing order: what "shift" seams add to wrapped vertices (or empty)
   BasisTables tables_;
@@ -1001,7 +1042,7 @@ class Deformer {
   mutable std::unique_ptr<CsrMatrix> face_matrix_;
 };
 
-inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
+inline FramePlan Deformer::plan_locked(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
   static const char axis_name[3] = {'x', 'y', 'z'};
   const Index N = n_control_points();
   check_control_points(P, "deform");
@@ -1039,7 +1080,7 @@ inline FramePlan Deformer::plan(const Eigen::Ref<const RowMatrixX3d>& P, const C
   // The rest volume is the default target of a volume-preserving frame only: other
   // frames do not sum it (frame/rest_volume.h).
   plan.target = !std::isnan(opt.target_volume) ? opt.target_volume
-                : opt.preserve_volume && !has_parts_ ? rest_volume(true)
+                : opt.preserve_volume && !has_parts_ ? rest_volumes().total
                                                      : 0.0;
   VPFFD_CHECK(std::isfinite(plan.target), "deform: target_volume is ", plan.target, "; expected a finite number");
   if (has_parts_) {
@@ -1144,7 +1185,9 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     t = now;
   };
 
-  const FramePlan pl = plan(P, opt);
+  // One rest state for the whole frame: a move on another thread waits for it.
+  std::shared_lock<RestLock> frame(rest_lock_);
+  const FramePlan pl = plan_locked(P, opt);
   const std::vector<SparseVec>& rows = pl.rows;
   lap(tm.plan);
 
