@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import vpffd
+from vpffd._files import write_text  # checked writes: a failure leaves the old file
 from vpffd.cli.benchmark import median_ms
 
 
@@ -63,7 +64,7 @@ def main():
                   f"{ms:.2f} | {1e3 * ms / rep.n_cells:.1f} |")
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(dict(machine=platform.processor() or platform.machine(), cores=os.cpu_count(),
+    write_text(out, json.dumps(dict(machine=platform.processor() or platform.machine(), cores=os.cpu_count(),
                                    threads=a.threads or vpffd._core.max_threads(), load_average=load,
                                    repeats=a.repeats, depth=a.depth, rows=rows), indent=1))
     print(f"wrote {out}")

@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 
 import vpffd
+from vpffd._files import open_replacing, write_text  # checked writes: a failure leaves the old file
 
 from vpffd.cli.benchmark import SHARED_MESHES, cpu_model, frame_edit as edit, load_average as load, median_ms, run_for
 from vpffd.normals import angles_deg, deformed_normals
@@ -281,7 +282,7 @@ def main(argv=None):
     if args.scaling:
         rows, fit = bench_scaling(args, device, probe.gpu_precision)
         out.mkdir(parents=True, exist_ok=True)
-        with open(out / f"gpu_scaling_{slug}.csv", "w", newline="") as f:
+        with open_replacing(out / f"gpu_scaling_{slug}.csv", "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
             w.writeheader()
             w.writerows(rows)
@@ -289,7 +290,7 @@ def main(argv=None):
                     vpffd=vpffd.__version__, precision=probe.gpu_precision, shape=args.shape, degree=args.degree,
                     repeats=args.repeats, fit=fit,
                     rows=rows)
-        (out / f"gpu_scaling_{slug}.json").write_text(json.dumps(meta, indent=1))
+        write_text(out / f"gpu_scaling_{slug}.json", json.dumps(meta, indent=1))
         print(f"wrote {out / f'gpu_scaling_{slug}.csv'} and .json", file=sys.stderr)
         return
     rows = []
@@ -300,14 +301,14 @@ def main(argv=None):
         sys.exit(f"bench_gpu: no mesh has at most --max-vertices {args.max_vertices} vertices")
     print_table(rows, device, probe.gpu_precision)
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / f"gpu_{slug}.csv", "w", newline="") as f:
+    with open_replacing(out / f"gpu_{slug}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]) if rows else ["model"])
         w.writeheader()
         w.writerows(rows)
     meta = dict(device=device, cpu=cpu_model(), load_start=load_start, load_end=load(), cores=os.cpu_count(), python=platform.python_version(),
                 vpffd=vpffd.__version__, precision=probe.gpu_precision, shape=args.shape, degree=args.degree,
                 repeats=args.repeats, rows=rows)
-    (out / f"gpu_{slug}.json").write_text(json.dumps(meta, indent=1))
+    write_text(out / f"gpu_{slug}.json", json.dumps(meta, indent=1))
     print(f"wrote {out / f'gpu_{slug}.csv'} and .json", file=sys.stderr)
 
 

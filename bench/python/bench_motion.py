@@ -43,6 +43,7 @@ import time
 import numpy as np
 
 import vpffd
+from vpffd._files import open_replacing  # checked writes: a failure leaves the old file
 from vpffd import animate, edits, shapes
 from vpffd.cli import motion
 from vpffd.cli.motion import _moved
@@ -219,7 +220,7 @@ def main():
              if key in table]
     print(f"load average at end {os.getloadavg()[0]:.2f}")
     if a.md:
-        with open(a.md, "w") as fh:
+        with open_replacing(a.md, "w") as fh:
             fh.write(head + "\n\n" + "\n".join(rows) + f"\n\nload average at end {os.getloadavg()[0]:.2f}\n")
 
 

@@ -24,6 +24,7 @@ import time
 import numpy as np
 
 import vpffd
+from vpffd._files import open_replacing  # checked writes: a failure leaves the old file
 from vpffd import shapes
 from vpffd.cli import motion
 
@@ -86,7 +87,7 @@ def main(argv=None):
     tail = f"load average at end {os.getloadavg()[0]:.2f}"
     print(tail)
     if a.md:
-        with open(a.md, "w") as fh:
+        with open_replacing(a.md, "w") as fh:
             fh.write(head + "\n\n" + "\n".join(rows) + "\n\n" + tail + "\n")
 
 

@@ -253,13 +253,14 @@ def main():
     print(format_table(rows))
     print(f"\nmachine: {head['cpu']}, pinned to CPUs {cpus}; load average before {head['load_before']}, "
           f"after {head['load_after']}")
+    from vpffd._files import open_replacing, write_text  # checked writes: a failure leaves the old file
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.with_suffix(".json").write_text(json.dumps(dict(head, rows=rows), indent=1))
+    write_text(out.with_suffix(".json"), json.dumps(dict(head, rows=rows), indent=1))
     keys = list(rows[0].keys()) if rows else []
     for r in rows:
         keys += [k for k in r if k not in keys]
-    with out.with_suffix(".csv").open("w", newline="") as f:
+    with open_replacing(out.with_suffix(".csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys)
         w.writeheader()
         w.writerows({k: " ".join(f"{x:.4f}" for x in v) if isinstance(v, list) else v for k, v in r.items()}

@@ -35,11 +35,8 @@ def save_png(path, image) -> None:
 
     png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, color_type, 0, 0, 0)) +
            chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)) + chunk(b"IEND", b""))
-    try:
-        with open(path, "wb") as f:
-            f.write(png)
-    except OSError as e:
-        raise _core.MeshIOError(f"save_png: '{os.fspath(path)}': {e.strerror or e}") from None
+    from ._files import write_bytes
+    write_bytes(path, png, "save_png")  # checked, atomic: a failed write leaves the old file
 
 
 def load_png(path) -> np.ndarray:

@@ -66,6 +66,12 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
     -------
     Mesh, or (Mesh, normals) with ``return_normals``.
 
+    Warns
+    -----
+    UserWarning
+        what the reader converted, e.g. a PLY whose coordinates are stored as
+        integers (read as float64).
+
     Raises
     ------
     vpffd.MeshIOError (an OSError)
@@ -87,6 +93,8 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
     except MemoryError as e:  # the arrays' conversion to NumPy; C++ turns its own bad_alloc into MeshIOError
         raise MeshIOError(f"load_mesh: '{p.decode('utf-8', 'backslashreplace')}': out of memory while "
                           "returning the mesh") from e
+    for note in d.get("notes", ()):
+        warnings.warn(f"load_mesh: '{p.decode('utf-8', 'backslashreplace')}': {note}", stacklevel=2)
     mesh = Mesh(d["vertices"], d["faces"])
     normals = d["normals"]
     if orient:

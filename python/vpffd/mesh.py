@@ -1,6 +1,8 @@
 """Triangle meshes as plain numpy arrays."""
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from . import _arrays, _core
@@ -110,13 +112,33 @@ class Mesh:
         """Enclosed (signed) volume, positive for outward-facing faces.
 
         Raises vpffd.InvalidInputError for a mesh that is not closed, saying how
-        many boundary (or non-manifold, or misoriented) edges it has."""
+        many boundary (or non-manifold, or misoriented) edges it has, and for a
+        volume outside the range of normal doubles (say, coordinates near 1e300 or
+        1e-150), saying which way; any finite coordinates otherwise give a finite
+        volume."""
         # The faces never change, so their edge report (a sort of 3F edges, the
         # costly part) is computed once; require_closed only runs to word the error.
         if not self.is_closed:
             _core.require_closed(self._F, "Mesh.volume")
-        centre = self.bounds.mean(axis=0)
-        return _core.signed_volume(self._V, self._F, centre, False)  # arrays checked in __init__
+        lo, hi = self.bounds
+        centre = 0.5 * lo + 0.5 * hi  # the mean, without overflow near the double range's ends
+        reach = float(np.max(np.maximum(hi - centre, centre - lo)))
+        if reach == 0.0:
+            return 0.0
+        # Summed in units of a power of two near the mesh's size, so that the triple
+        # products neither overflow (coordinates near 1e300) nor underflow (near
+        # 1e-150); the scaling is exact, so the bits are those of the plain sum
+        # wherever that sum is in range.
+        s = float(np.ldexp(1.0, int(np.frexp(reach)[1]) - 1))  # reach / s in [1, 2)
+        v = _core.signed_volume(self._V / s, self._F, centre / s, False)  # arrays checked in __init__
+        volume = v * s * s * s
+        if not np.isfinite(volume):
+            raise _core.InvalidInputError(f"Mesh.volume: the enclosed volume ({v:.6g} x {s:.6g}^3) is beyond "
+                                          "the double range (1.8e308); scale the mesh down")
+        if v != 0.0 and abs(volume) < sys.float_info.min:
+            raise _core.InvalidInputError(f"Mesh.volume: the enclosed volume ({v:.6g} x {s:.6g}^3) is below the "
+                                          "smallest normal double (2.2e-308); scale the mesh up")
+        return volume
 
     def check(self):
         """Defect report: boundary edges and loops, non-manifold edges and vertices,

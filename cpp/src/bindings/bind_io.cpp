@@ -24,6 +24,7 @@ void bind_io(py::module_& m) {
         out["skipped_faces"] = d.skipped_faces;
         out["format"] = d.format;
         out["gzipped"] = d.gzipped;
+        out["notes"] = d.notes;
         return out;
       },
       py::arg("path"),

@@ -136,6 +136,14 @@ bool Lines::next(std::string& line) {
   }
   ++number_;
   if (!line.empty() && line.back() == '\r') line.pop_back();
+  if (number_ == 1) {
+    // A UTF-8 byte-order mark (some Windows tools write one) is not part of the first
+    // keyword: read as one, an OBJ's first "v" line would be skipped and every face
+    // index would shift. UTF-16 text is not this format's text at all.
+    if (line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
+    if (line.compare(0, 2, "\xFF\xFE") == 0 || line.compare(0, 2, "\xFE\xFF") == 0)
+      fail("load_mesh", shown_, "the file is UTF-16 text; save it as UTF-8 or ASCII");
+  }
   return true;
 }
 

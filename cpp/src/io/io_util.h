@@ -41,7 +41,8 @@ std::string at_line(long long n);
 
 /// A text file read line by line (1-based line numbers, '\r' dropped). A line
 /// longer than max_line bytes throws MeshIOError naming `shown` (a binary file
-/// read as text would otherwise be held in memory whole).
+/// read as text would otherwise be held in memory whole). A UTF-8 byte-order mark
+/// before the first line is dropped; UTF-16 text is refused.
 class Lines {
  public:
   Lines(const std::string& file, const std::string& shown) : in_(file, std::ios::binary), shown_(shown) {}

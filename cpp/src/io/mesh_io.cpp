@@ -7,14 +7,16 @@
 //         turns unparsable numbers into 0 and trusts binary counts.
 //   OM    read by vpffd (read_om.cpp; why, at its top): OpenMesh's reader
 //         asserts, double-frees and returns corrupt halfedge connectivity.
-//   PLY   checked by vpffd through the whole file (ply_stl_checks.cpp: strict
-//         header, every ASCII value, every binary list count against the bytes
-//         left), then read by OpenMesh (openmesh_backend.cpp).
-//   STL   checked likewise (record layout, binary size), then read by OpenMesh,
-//         which merges equal positions.
+//   PLY   read by vpffd (read_ply.cpp): every scalar, count and index type the
+//         format names, ASCII and both byte orders; OpenMesh's reader took only a
+//         few count types and integer coordinates not at all.
+//   STL   checked by vpffd through the whole file (stl_checks.cpp: record layout,
+//         binary size), then read by OpenMesh, which merges equal positions.
 //   .gz   decompressed by vpffd (gzip.cpp) to a temporary file with a size
 //         bound, then read as above.
-//   Writing: every format by OpenMesh (openmesh_backend.cpp).
+//   Writing: every format by OpenMesh into memory (openmesh_backend.cpp), then to
+//         the disk by replace_file (atomic_write.cpp): checked writes to a temporary
+//         file, fsync, rename over the target; a failure leaves the old file.
 // Nothing a reader returns is trusted: finish_mesh checks every face index
 // against the vertex count and every coordinate for finiteness, and std::bad_alloc
 // becomes a MeshIOError naming the file.
@@ -118,9 +120,10 @@ void read_any(const std::string& path, const std::string& shown, MeshData& out) 
     io_detail::read_off(file, shown, file_size, out);
   } else if (ext == "om") {
     io_detail::read_om(file, shown, file_size, out);
+  } else if (ext == "ply") {
+    io_detail::read_ply(file, shown, file_size, out);
   } else {
-    const std::string problem =
-        ext == "ply" ? io_detail::check_ply(file, shown, file_size) : io_detail::check_stl(file, shown, file_size);
+    const std::string problem = io_detail::check_stl(file, shown, file_size);
     if (!problem.empty()) fail(what, shown, problem);
     io_detail::read_with_openmesh(file, shown, ext, out);
   }
@@ -170,12 +173,28 @@ WriteReport write_mesh(const std::string& path, const Eigen::Ref<const RowMatrix
          ext.empty() ? "no file extension; expected .obj, .off, .ply, .stl or .om"
                      : "unknown format " + io_detail::quote("." + ext) + "; expected .obj, .off, .ply, .stl or .om");
   if (ext == "obj" && options.binary == 1) throw InvalidInputError("save_mesh: OBJ has no binary encoding");
+  if (ext != "om") {
+    // OpenMesh's OBJ, OFF, PLY and STL writers store float32: a coordinate past its
+    // range would be written as infinity, a file no reader takes back.
+    for (Index v = 0; v < V.rows(); ++v)
+      for (int c = 0; c < 3; ++c)
+        if (std::isinf(static_cast<float>(V(v, c))))
+          throw InvalidInputError(detail::concat("save_mesh: vertex ", v, " (", V(v, 0), ", ", V(v, 1), ", ",
+                                                 V(v, 2), ") is beyond the float32 range (3.4e38) that ." + ext +
+                                                     " files store; save as .om (float64) or scale the mesh"));
+  }
   if (ext == "om" && options.binary == 0) throw InvalidInputError("save_mesh: OM is a binary format only");
   std::error_code ec;
   const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
   if (!fs::is_directory(dir, ec))
     fail(what, shown, "the folder '" + io_detail::display_name(dir.string()) + "' does not exist");
   if (fs::is_directory(p, ec)) fail(what, shown, "is a directory");
+  // Where the file cannot be replaced safely (a FIFO, a device), fail before any work
+  // (replace_file checks again when it writes).
+  const fs::file_status status = fs::status(p, ec);
+  if (!ec && fs::exists(status) && !fs::is_regular_file(status))
+    fail(what, shown, "is not a regular file (a FIFO, a device or a socket), which cannot be replaced safely; "
+                      "write to a regular file");
   try {
     return io_detail::write_with_openmesh(path, shown, ext, V, F, N, options);
   } catch (const std::bad_alloc&) {

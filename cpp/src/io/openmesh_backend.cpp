@@ -1,5 +1,6 @@
-// Everything vpffd asks of OpenMesh: reading PLY and STL (after check_ply /
-// check_stl went through the whole file), and writing every format. OpenMesh
+// Everything vpffd asks of OpenMesh: reading STL (after check_stl went through
+// the whole file), and formatting every format for writing (into memory:
+// atomic_write.cpp puts the bytes on the disk). OpenMesh
 // reports failures as a bool plus text on its omerr() stream; both become
 // MeshIOError here, with the file name.
 
@@ -15,6 +16,7 @@
 #include <mutex>
 #include <sstream>
 
+#include "atomic_write.h"
 #include "io_util.h"
 #include "readers.h"
 
@@ -210,6 +212,7 @@ WriteReport write_with_openmesh(const std::string& path, const std::string& show
   if (normals) mesh.request_vertex_normals();
   WriteReport report;
   std::string messages;
+  std::ostringstream bytes;
   bool ok = false;
   {
     OmerrCapture capture;
@@ -243,17 +246,19 @@ WriteReport write_with_openmesh(const std::string& path, const std::string& show
     if (binary) opt += OpenMesh::IO::Options::Binary;
     if (binary && ext != "om") opt += OpenMesh::IO::Options::LSB;
     if (normals) opt += OpenMesh::IO::Options::VertexNormal;
+    // Into memory: OpenMesh does not check its writes. replace_file writes the bytes,
+    // checking each write, and puts them in place only when all are on the disk.
     try {
-      ok = OpenMesh::IO::write_mesh(mesh, path, opt, options.precision);
+      ok = OpenMesh::IO::write_mesh(mesh, bytes, "." + ext, opt, options.precision);
     } catch (const std::exception& e) {
       fail(what, shown, "the writer failed: " + printable(e.what()));
     }
     messages = printable(capture.summary());
   }
-  if (!ok)
+  if (!ok || !bytes)
     fail(what, shown,
-         "OpenMesh's " + ext + " writer failed (folder not writable, disk full?)" +
-             (messages.empty() ? std::string() : ": " + messages));
+         "OpenMesh's " + ext + " writer failed" + (messages.empty() ? std::string() : ": " + messages));
+  replace_file(path, shown, bytes.str(), what);
   return report;
 }
 

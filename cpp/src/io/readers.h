@@ -18,12 +18,12 @@ void read_obj(const std::string& file, const std::string& shown, MeshData& out);
 void read_off(const std::string& file, const std::string& shown, std::uint64_t size, MeshData& out);
 void read_om(const std::string& file, const std::string& shown, std::uint64_t size, MeshData& out);
 
-/// PLY checked completely before OpenMesh may read it: "" or the problem.
-std::string check_ply(const std::string& file, const std::string& shown, std::uint64_t size);
+/// PLY, ASCII and binary, every type the format names (read_ply.cpp).
+void read_ply(const std::string& file, const std::string& shown, std::uint64_t size, MeshData& out);
 /// STL checked completely before OpenMesh may read it: "" or the problem.
 std::string check_stl(const std::string& file, const std::string& shown, std::uint64_t size);
 
-/// PLY and STL through OpenMesh's readers (after check_ply / check_stl).
+/// STL through OpenMesh's reader (after check_stl).
 void read_with_openmesh(const std::string& file, const std::string& shown, const std::string& ext, MeshData& out);
 WriteReport write_with_openmesh(const std::string& path, const std::string& shown, const std::string& ext,
                                 const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,

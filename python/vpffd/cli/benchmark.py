@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _core, edits, shapes
+from .._files import write_text
 from ..deformer import Deformer
 from ..io import load_mesh
 from ..lattice import Lattice
@@ -206,6 +207,6 @@ def run_benchmark(include_shared: bool = True, repeats: int = 7, with_csr: bool 
     print(format_options(rows))
     if out:
         Path(out).parent.mkdir(parents=True, exist_ok=True)
-        Path(out).write_text(json.dumps(dict(machine=platform.uname()._asdict(), cores=os.cpu_count(),
-                                             rows=rows), indent=1))
+        write_text(out, json.dumps(dict(machine=platform.uname()._asdict(), cores=os.cpu_count(), rows=rows),
+                                   indent=1), "benchmark")
     return rows

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import shapes
+from .._files import open_replacing, replaced_path
 from ..animate import BouncingBall, Twist, run_animation
 from ..deformer import Deformer
 from ..lattice import Lattice
@@ -201,7 +202,8 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
     _colour_bar(ImageDraw.Draw(sheet), sheet, sheet.width, h * len(keys), bar_h, fs, font, small, limit, folds,
                 unicode_ok)
     sheet_path = out / f"{scene.key}_keyframes.png"
-    sheet.save(sheet_path)
+    with replaced_path(sheet_path, "demo") as tmp:
+        sheet.save(tmp)
     written.append(sheet_path)
     return written
 
@@ -274,12 +276,13 @@ def _plot(scenes, path: Path) -> None:
         bot.legend(fontsize=7, loc="upper left")
         bot.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    with replaced_path(path, "demo") as tmp:
+        fig.savefig(tmp, dpi=100)
     plt.close(fig)
 
 
 def _csv(scenes, path: Path) -> None:
-    with open(path, "w", newline="") as fh:
+    with open_replacing(path, "w", "demo", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["scene", "frame", "time_s", "parameter", "variant", "axes", "volume", "rest_volume",
                     "relative_change", "plain_relative_change"])

@@ -7,6 +7,8 @@ import re
 from contextlib import contextmanager
 from pathlib import Path
 
+from .._files import replaced_path
+
 
 def frame_dir(out: Path, key: str, frames: int) -> Path:
     """``out/key``, created, without the ``frame_NNN.png`` files this run of
@@ -22,7 +24,8 @@ def frame_dir(out: Path, key: str, frames: int) -> Path:
 
 def save_frame(fdir: Path, f: int, image) -> Path:
     path = fdir / f"frame_{f:03d}.png"
-    image.save(path)
+    with replaced_path(path, "save_frame") as tmp:
+        image.save(tmp)
     return path
 
 
@@ -32,7 +35,8 @@ def write_gif(images, path: Path, seconds_per_frame: float) -> Path:
     from PIL import Image
     pal = [g.convert("P", palette=Image.ADAPTIVE, colors=128) for g in images]
     ms = max(int(round(1000 * seconds_per_frame)), 20)
-    pal[0].save(path, save_all=True, append_images=pal[1:], duration=ms, loop=0, optimize=False)
+    with replaced_path(path, "write_gif") as tmp:
+        pal[0].save(tmp, save_all=True, append_images=pal[1:], duration=ms, loop=0, optimize=False)
     return path
 
 

@@ -149,6 +149,14 @@ def _default_toward(args) -> None:
         raise _UsageError(f"--bend: --toward {args.toward} must differ from --axis {args.axis} (the axis that bends)")
 
 
+def _same_file(a, b) -> bool:
+    """Whether paths a and b name one file (links and other spellings included)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # b does not exist yet (or a cannot be read: load_mesh says so)
+        return False
+
+
 def _cmd_deform(args) -> int:
     if args.squash is not None and args.squash <= 0:
         raise _UsageError(f"--squash: expected a positive factor, got {args.squash}")
@@ -180,6 +188,12 @@ def _cmd_deform(args) -> int:
         out_dir = os.path.dirname(os.path.abspath(path)) if path else None
         if out_dir and not os.path.isdir(out_dir):
             raise FileNotFoundError(2, "output folder does not exist", out_dir)
+    if not args.in_place and _same_file(args.input, args.output):
+        raise _UsageError(f"OUT is IN ({args.output!r}): that would replace the input mesh; give another "
+                          "OUT, or --in-place to replace IN on purpose (it is replaced only once the new file "
+                          "is complete)")
+    if args.render and _same_file(args.input, args.render):
+        raise _UsageError(f"--render: {args.render!r} is the input mesh file")
 
     # stages: read, embed, deform, write (the bar shows only past one second)
     bar = Progress("deform", 4)
@@ -378,7 +392,9 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Deforms a mesh file with a lattice around it (edits applied in the order "
                        "squash, taper, twist, bend, then dragged points) and keeps its volume exactly.")
     p.add_argument("input", metavar="IN", help="mesh file to read (the formats of vpffd.load_mesh)")
-    p.add_argument("output", metavar="OUT", help="mesh file to write; the extension picks the format")
+    p.add_argument("output", metavar="OUT", help="mesh file to write; the extension picks the format "
+                   "(written to a temporary file first: a failed write leaves an existing OUT as it was)")
+    p.add_argument("--in-place", action="store_true", help="allow OUT to be IN (the input file is replaced)")
     p.add_argument("--lattice", type=_lattice_shape, default=(8, 8, 8), metavar="NxNxN",
                    help="control points per axis (default: 8x8x8)")
     p.add_argument("--degree", type=int, default=3, help="B-spline degree, 1..5")

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import edits, shapes
+from .._files import open_replacing, replaced_path
 from ..animate import PathOffset
 from ..deformer import Deformer
 from ..lattice import Lattice
@@ -208,12 +209,13 @@ def plot(scenes, path: Path) -> None:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, ncol=2, loc="best")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    with replaced_path(path, "motion") as tmp:
+        fig.savefig(tmp, dpi=100)
     plt.close(fig)
 
 
 def write_csv(scenes, path: Path) -> None:
-    with open(path, "w", newline="") as fh:
+    with open_replacing(path, "w", "motion", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["scene", "frame", "time_s", "variant", "object", "volume", "rest_volume", "relative_change"])
         for s in scenes:

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _core, shapes
+from .._files import open_replacing
 from ..animate import Bend
 from ..deformer import Deformer
 from ..lattice import Lattice
@@ -113,7 +114,7 @@ def table(scene: MultiresScene, stream) -> None:
 
 def write_csv(scene: MultiresScene, path: Path) -> None:
     r = scene.results
-    with open(path, "w", newline="") as fh:
+    with open_replacing(path, "w", "multires", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["frame", "time_s", "bend_deg", "plain_ffd_change", "ffd_kept_error", "multires_error",
                     "multires_base_error", "normal_angle_mean_deg", "normal_angle_max_deg"])

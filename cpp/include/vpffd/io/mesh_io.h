@@ -12,8 +12,8 @@
 /// a repeated corner ("f 1 1 1", "3 0 0 0") is kept as stored, like any other;
 /// faces with fewer than 3 corners are counted in MeshData::skipped_faces.
 ///
-/// OBJ, OFF (ASCII and binary) and OM are read by vpffd itself; PLY and STL are
-/// checked through the whole file before OpenMesh reads them (OpenMesh's readers
+/// OBJ, OFF (ASCII and binary), PLY (every type the format names) and OM are read
+/// by vpffd itself; STL is checked through the whole file before OpenMesh reads it (OpenMesh's readers
 /// turn "nan", "1 x 0" or a short file into vertices at 0 without an error, trust
 /// header counts, and abort or loop on some corrupt headers). Every reader
 /// survives arbitrary bytes: counts are checked against the file size before
@@ -42,6 +42,7 @@ struct MeshData {
   Index triangulated_polygons = 0;  ///< faces with more than 3 corners, split into fans
   Index skipped_faces = 0;          ///< faces with fewer than 3 corners (ignored)
   std::string format;               ///< lower-case extension read, e.g. "ply"
+  std::vector<std::string> notes;   ///< what the reader converted (e.g. integer coordinates read as float64)
   bool gzipped = false;             ///< the file was gzip-compressed
 };
 
