@@ -28,6 +28,14 @@ class CorrectionOptions:
     def __repr__(self) -> str:
         ...
     @property
+    def allow_inversion(self) -> bool:
+        """
+        Accept a target volume of zero or of the other sign than the rest volume (the surface is flattened or turned inside out).
+        """
+    @allow_inversion.setter
+    def allow_inversion(self, arg0: bool) -> None:
+        ...
+    @property
     def allow_open(self) -> bool:
         """
         Correct the cone volume of a mesh that is not closed.

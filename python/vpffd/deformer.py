@@ -454,7 +454,7 @@ class Deformer:
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", weights=None,
                fixed=None, constraints=None, target_volume=None, method: str = "traversal",
                allow_open: bool = False, rounds: int = 1, on_fold: str = "ignore",
-               normals: bool = False) -> DeformResult:
+               normals: bool = False, allow_inversion: bool = False) -> DeformResult:
         """Deforms the mesh and corrects its volume.
 
         Parameters
@@ -478,7 +478,12 @@ class Deformer:
             Any number; each must move only along corrected axes.
         target_volume : float or sequence of K floats, optional
             default: the rest volume. With ``parts``: one volume per part (in the
-            order of ``part_labels``), default each part's rest volume.
+            order of ``part_labels``), default each part's rest volume. A target
+            that is zero or of the other sign than the rest volume is refused
+            (see ``allow_inversion``).
+        allow_inversion : bool
+            accept such a target: the surface is then flattened or turned inside
+            out. (An open mesh's cone volume, ``allow_open``, may have either sign.)
         method : {"traversal", "csr"}
             how the coefficients are computed (same result to ~1e-12). The
             "vulkan" backend always runs the traversal: it accepts "csr" (refused
@@ -524,6 +529,8 @@ class Deformer:
         _folds.check_on_fold(on_fold)
         if not isinstance(normals, (bool, np.bool_)):
             raise TypeError(f"normals: expected a bool, got {type(normals).__name__}")
+        if not isinstance(allow_inversion, (bool, np.bool_)):
+            raise TypeError(f"allow_inversion: expected a bool, got {type(allow_inversion).__name__}")
         P = self._P(control_points)
         w, fx = correction_arrays(self, P, weights, fixed)
         cons = []
@@ -573,7 +580,7 @@ class Deformer:
             warnings.warn("deform: the mesh is not closed; the volume kept is that of the cone from the lattice "
                           "centre, which depends on where that centre is", stacklevel=2)
         opts = self._frame_options(bool(preserve_volume), axes, w, fx, cons, tv, part_targets, method,
-                                   bool(allow_open), int(rounds))
+                                   bool(allow_open), int(rounds), bool(allow_inversion))
         if self._vk is not None:
             r = self._vk.deform(P, opts, normals=bool(normals))
         else:
@@ -601,18 +608,20 @@ class Deformer:
             faces=self._mesh.faces, normals=self._frame_normals(r, normals), part_volumes=r.get("part_volumes"),
             part_volumes_before=r.get("part_volumes_before"), part_target_volumes=r.get("part_targets"))
 
-    def _frame_options(self, preserve_volume, axes, w, fx, cons, tv, part_targets, method, allow_open, rounds):
+    def _frame_options(self, preserve_volume, axes, w, fx, cons, tv, part_targets, method, allow_open, rounds,
+                       allow_inversion=False):
         """The one place a frame's options are named; every backend takes the same object.
         Frames without weights, fixed points, constraints or targets share one per setting."""
         key = None
         if w is None and fx is None and not cons and tv is None and part_targets is None:
-            key = (preserve_volume, axes, method, allow_open, rounds)
+            key = (preserve_volume, axes, method, allow_open, rounds, allow_inversion)
             opts = self._plain_options.get(key)
             if opts is not None:
                 return opts
         opts = _core.CorrectionOptions(preserve_volume=preserve_volume, axes=axes, weights=w, fixed=fx,
                                        constraints=cons, target_volume=tv, part_targets=part_targets,
-                                       method=method, threads=self._threads, allow_open=allow_open, rounds=rounds)
+                                       method=method, threads=self._threads, allow_open=allow_open, rounds=rounds,
+                                       allow_inversion=allow_inversion)
         if key is not None and len(self._plain_options) < 64:
             self._plain_options[key] = opts
         return opts

@@ -3,14 +3,18 @@
     python tests/fuzz/fuzz_io.py --per-kind 1000 --seed 1 --out /tmp/fuzz-io
 
 For every kind of file (see seeds.KINDS) it makes ``--per-kind`` mutants of the
-seed corpus (deterministic for a given ``--seed``), writes them to a scratch
+seed corpus, and as many inputs of each strategy of seeds.STRATEGIES (every seed
+cut at every byte; valid PLY files of every type; text files behind a UTF-8 byte-order
+mark, which must load), deterministic for a given ``--seed``; writes them to a scratch
 folder and loads them in batches, each batch in a fresh ``worker.py`` process
 with a capped address space. An input passes when it gives a valid Mesh or a
 vpffd.MeshIOError naming the file; a crash (signal, abort), a hang (no result
 within ``--timeout`` seconds), another exception type or a peak-RSS jump is a
 finding. A finding is confirmed by loading that input alone in a new process
-and saved under ``OUT/findings/``; the batch resumes after it. Exit status 1
-when anything was found. See tests/fuzz/README.md.
+and saved under ``OUT/findings/``; the batch resumes after it. Then ``--writes``
+mesh and byte writes under random file-size limits (write_worker.py) check that a
+failed write keeps the old file and leaves no temporary one. Exit status 1 when
+anything was found. See tests/fuzz/README.md.
 """
 from __future__ import annotations
 
@@ -33,8 +37,28 @@ import seeds  # noqa: E402
 
 
 def inputs(kind: str, corpus, count: int, seed: int):
-    """``count`` mutants of the seeds of ``kind``: (name, extension, bytes), deterministic."""
+    """``count`` inputs of ``kind`` (a seed kind's mutants, or a strategy of
+    seeds.STRATEGIES): (name, bytes), deterministic. Valid files carry ".valid." in
+    their names (the worker then counts a refusal as a finding)."""
     rng = random.Random(f"vpffd-fuzz-{seed}-{kind}")
+    if kind == "truncated":
+        # Every seed (but the gzipped ones: gzip's own checks decide those) cut at every
+        # byte; `count` of them, drawn without repeats, or all.
+        cuts = [(ext, data, n) for k in seeds.KINDS if k != "gz" for ext, data in corpus[k] for n in range(len(data))]
+        for i, j in enumerate(sorted(rng.sample(range(len(cuts)), min(count, len(cuts))))):
+            ext, data, n = cuts[j]
+            yield f"truncated_{i:07d}.{ext}", data[:n]
+        return
+    if kind == "ply_types":
+        for i in range(count):
+            yield f"ply_types_{i:07d}.valid.ply", seeds.ply_typed(rng)
+        return
+    if kind == "bom":
+        pool = [(ext, data) for k in seeds.TEXT_KINDS for ext, data in corpus[k]]
+        for i in range(count):
+            ext, data = pool[rng.randrange(len(pool))]
+            yield f"bom_{i:07d}.valid.{ext}", b"\xef\xbb\xbf" + data
+        return
     pool = corpus[kind]
     for i in range(count):
         ext, data = pool[rng.randrange(len(pool))]
@@ -89,13 +113,13 @@ def fuzz(per_kind: int, seed: int, out: Path, kinds=None, batch: int = 400, time
     summary = {"seed": seed, "per_kind": per_kind, "kinds": {}, "findings": []}
     try:
         corpus = seeds.seeds(str(scratch))
-        for kind in kinds or seeds.KINDS:
+        for kind in kinds or seeds.KINDS + seeds.STRATEGIES:
             t0 = time.time()
             counts = {"ok": 0, "meshioerror": 0, "fail": 0}
             gen = inputs(kind, corpus, per_kind, seed)
             while True:
                 chunk = []
-                for name, ext, data in ((n, n.split(".", 1)[1], d) for n, d in gen):
+                for name, data in gen:
                     p = scratch / name
                     p.write_bytes(data)
                     chunk.append(p)
@@ -132,6 +156,23 @@ def fuzz(per_kind: int, seed: int, out: Path, kinds=None, batch: int = 400, time
     return summary
 
 
+def fuzz_writes(count: int, seed: int, timeout: float = 300.0) -> list[str]:
+    """The write strategy: ``count`` writes under random file-size limits in a child
+    (write_worker.py). Returns the findings (empty when every failed write kept its
+    file and no temporary file was left)."""
+    folder = tempfile.mkdtemp(prefix="vpffd-writes-")
+    try:
+        r = subprocess.run([sys.executable, str(HERE / "write_worker.py"), folder, str(count), str(seed)],
+                           capture_output=True, text=True, timeout=timeout)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    findings = [line[5:] for line in r.stdout.splitlines() if line.startswith("FAIL ")]
+    if f"DONE {count}" not in r.stdout:
+        tail = " | ".join(r.stderr.strip().splitlines()[-3:])
+        findings.append(f"the write worker stopped (exit status {r.returncode}): {tail}")
+    return findings
+
+
 def write_corpus(per_kind: int, seed: int, dest: Path, kinds=None) -> int:
     """Writes the same mutants ``fuzz`` would load (same seed, same names) into
     ``dest`` without loading them, for a replay through the C++ readers under the
@@ -141,7 +182,7 @@ def write_corpus(per_kind: int, seed: int, dest: Path, kinds=None) -> int:
     n = 0
     try:
         corpus = seeds.seeds(str(scratch))
-        for kind in kinds or seeds.KINDS:
+        for kind in kinds or seeds.KINDS + seeds.STRATEGIES:
             for name, data in inputs(kind, corpus, per_kind, seed):
                 (dest / name).write_bytes(data)
                 n += 1
@@ -163,12 +204,13 @@ def main(argv=None):
     ap.add_argument("--per-kind", type=int, default=1000, help="mutants per kind of file")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--out", type=Path, default=Path("fuzz-io-out"))
-    ap.add_argument("--kinds", nargs="*", choices=seeds.KINDS, help="default: all")
+    ap.add_argument("--kinds", nargs="*", choices=seeds.KINDS + seeds.STRATEGIES, help="default: all")
     ap.add_argument("--batch", type=int, default=400, help="inputs per child process")
     ap.add_argument("--timeout", type=float, default=20.0, help="seconds one input may take")
     ap.add_argument("--as-mb", type=int, default=1024, help="address space a child may add after importing vpffd")
     ap.add_argument("--write-only", type=Path, metavar="DIR",
                     help="only write the mutants into DIR (for tests/fuzz/replay.cpp under the sanitizers)")
+    ap.add_argument("--writes", type=int, default=200, help="writes under random file-size limits (0: none)")
     args = ap.parse_args(argv)
     if args.write_only:
         n = write_corpus(args.per_kind, args.seed, args.write_only, args.kinds)
@@ -177,7 +219,12 @@ def main(argv=None):
     s = fuzz(args.per_kind, args.seed, args.out, args.kinds, args.batch, args.timeout, args.as_mb)
     total = sum(k["inputs"] for k in s["kinds"].values())
     print(f"{total} inputs, {len(s['findings'])} findings; summary in {args.out / 'summary.json'}")
-    return 1 if s["findings"] else 0
+    writes = fuzz_writes(args.writes, args.seed) if args.writes else []
+    for w in writes:
+        print(f"write finding: {w}")
+    if args.writes:
+        print(f"{args.writes} writes under file-size limits, {len(writes)} findings")
+    return 1 if s["findings"] or writes else 0
 
 
 if __name__ == "__main__":

@@ -18,6 +18,16 @@ CUBE_F = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), 
 MESHES = [(TET_V, TET_F), (CUBE_V, CUBE_F)]
 
 KINDS = ("obj", "off", "off_binary", "ply_ascii", "ply_le", "ply_be", "stl_ascii", "stl_binary", "om", "gz")
+# Strategies beside the mutants (fuzz_io.inputs): every seed cut at every byte, valid
+# PLY files of random types and extra properties, text seeds behind a UTF-8 byte-order
+# mark. Files of the last two are valid: their names carry ".valid.", and the worker
+# counts a refusal as a finding.
+STRATEGIES = ("truncated", "ply_types", "bom")
+TEXT_KINDS = ("obj", "off", "ply_ascii")  # the text formats vpffd reads itself
+PLY_CODES = {"char": "b", "uchar": "B", "short": "h", "ushort": "H", "int": "i", "uint": "I", "float": "f",
+             "double": "d", "int8": "b", "uint8": "B", "int16": "h", "uint16": "H", "int32": "i", "uint32": "I",
+             "float32": "f", "float64": "d"}
+PLY_INTS = [t for t, c in PLY_CODES.items() if c in "bBhHiI"]
 
 
 def obj(V, F, normals=False) -> bytes:
@@ -49,24 +59,76 @@ def off_binary(V, F, normals=False) -> bytes:
     return b
 
 
-def ply(V, F, fmt="ascii", index_type="int", count_type="uchar", normals=False) -> bytes:
+def ply(V, F, fmt="ascii", index_type="int", count_type="uchar", normals=False, coord_type="float",
+        vertex_extra=(), face_extra=()) -> bytes:
+    """A PLY file; vertex_extra / face_extra: (type, name, value) scalars or
+    ("list", count type, value type, name, values) lists appended to each record."""
     props = ["x", "y", "z"] + (["nx", "ny", "nz"] if normals else [])
     head = ["ply", f"format {fmt} 1.0", "comment seed", f"element vertex {len(V)}"]
-    head += [f"property float {p}" for p in props]
-    head += [f"element face {len(F)}", f"property list {count_type} {index_type} vertex_indices", "end_header"]
+    head += [f"property {coord_type if p in 'xyz' else 'float'} {p}" for p in props]
+    head += [_ply_prop(x) for x in vertex_extra]
+    head += [f"element face {len(F)}", f"property list {count_type} {index_type} vertex_indices"]
+    head += [_ply_prop(x) for x in face_extra]
+    head.append("end_header")
     h = ("\n".join(head) + "\n").encode()
+    ints = PLY_CODES[coord_type] in "bBhHiI"
+    coord = (lambda x: int(x)) if ints else (lambda x: x)
     if fmt == "ascii":
-        body = [" ".join(repr(x) for x in (list(v) + ([0.0, 0.0, 1.0] if normals else []))) for v in V]
-        body += [f"{len(f)} " + " ".join(map(str, f)) for f in F]
+        body = [" ".join(repr(coord(x)) for x in v) + (" 0.0 0.0 1.0" if normals else "") + _ply_ascii(vertex_extra)
+                for v in V]
+        body += [f"{len(f)} " + " ".join(map(str, f)) + _ply_ascii(face_extra) for f in F]
         return h + ("\n".join(body) + "\n").encode()
     e = "<" if fmt == "binary_little_endian" else ">"
-    codes = {"uchar": "B", "int": "i", "uint": "I", "ushort": "H", "short": "h"}
     b = bytearray(h)
     for v in V:
-        b += struct.pack(e + "3f", *v) + (struct.pack(e + "3f", 0, 0, 1) if normals else b"")
+        b += struct.pack(e + 3 * PLY_CODES[coord_type], *(coord(x) for x in v))
+        b += (struct.pack(e + "3f", 0, 0, 1) if normals else b"") + _ply_binary(e, vertex_extra)
     for f in F:
-        b += struct.pack(e + codes[count_type], len(f)) + struct.pack(e + codes[index_type] * len(f), *f)
+        b += struct.pack(e + PLY_CODES[count_type], len(f)) + struct.pack(e + PLY_CODES[index_type] * len(f), *f)
+        b += _ply_binary(e, face_extra)
     return bytes(b)
+
+
+def _ply_prop(x) -> str:
+    return f"property list {x[1]} {x[2]} {x[3]}" if x[0] == "list" else f"property {x[0]} {x[1]}"
+
+
+def _ply_ascii(extra) -> str:
+    out = ""
+    for x in extra:
+        out += f" {len(x[4])} " + " ".join(map(str, x[4])) if x[0] == "list" else f" {x[2]}"
+    return out
+
+
+def _ply_binary(e, extra) -> bytes:
+    out = b""
+    for x in extra:
+        if x[0] == "list":
+            out += struct.pack(e + PLY_CODES[x[1]], len(x[4])) + struct.pack(e + PLY_CODES[x[2]] * len(x[4]), *x[4])
+        else:
+            out += struct.pack(e + PLY_CODES[x[0]], x[2])
+    return out
+
+
+def ply_typed(rng) -> bytes:
+    """A valid PLY of random encoding, count, index and coordinate types (any of the
+    names the format allows), with random extra scalar and list properties."""
+    V, F = MESHES[rng.randrange(len(MESHES))]
+    fmt = rng.choice(["ascii", "binary_little_endian", "binary_big_endian"])
+
+    def extra(prefix):
+        out = []
+        for j in range(rng.randrange(3)):
+            if rng.random() < 0.5:
+                out.append((rng.choice(list(PLY_CODES)), f"{prefix}{j}", rng.randrange(100)))
+            else:
+                out.append(("list", rng.choice(PLY_INTS), rng.choice(list(PLY_CODES)), f"{prefix}l{j}",
+                            [rng.randrange(100) for _ in range(rng.randrange(4))]))
+        return out
+
+    return ply(V, F, fmt, index_type=rng.choice(PLY_INTS), count_type=rng.choice(PLY_INTS),
+               normals=rng.random() < 0.3, coord_type=rng.choice(list(PLY_CODES)), vertex_extra=extra("v"),
+               face_extra=extra("f"))
 
 
 def _triangles(V, F):

@@ -50,6 +50,8 @@ def main():
             msg = str(e)
             name = os.path.basename(p)
             why = None if name in msg else f"message does not name the file: {msg[:200]!r}"
+            if why is None and ".valid." in name:
+                why = f"a valid file was refused: {msg[:300]!r}"
             result = "meshioerror" if why is None else "FAIL " + why
         except BaseException as e:  # noqa: BLE001 - any other exception is the finding
             result = f"FAIL {type(e).__name__}: {str(e)[:300]!r}"

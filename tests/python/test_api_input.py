@@ -114,7 +114,9 @@ def test_argument_types_are_named(sphere, lat):
         vpffd.Lattice.around(sphere, padding="a")
     with pytest.raises(InvalidInputError, match=r"\(\.\.\., 3\)"):
         vpffd.twist(np.arange(24.0).reshape(4, 6), 10)
-    r = d.deform(target_volume=0.0, axes="z")
+    with pytest.raises(InvalidInputError, match="zero or of the other sign.*allow_inversion"):
+        d.deform(target_volume=0.0, axes="z")
+    r = d.deform(target_volume=0.0, axes="z", allow_inversion=True)
     assert abs(r.volume) <= 1e-12 * d.rest_volume  # volume_error is relative: inf for a zero target
     assert 100 < d.bytes_per_vertex < 250  # embedding, orders, faces, face lists, rest vertices
 

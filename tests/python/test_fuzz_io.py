@@ -29,8 +29,18 @@ def test_seeds_are_valid_meshes(tmp_path):
 
 def test_short_fuzz_run_finds_nothing(tmp_path):
     s = fuzz_io.fuzz(PER_KIND, seed=2026, out=tmp_path, log=lambda *a: None)
-    assert sum(k["inputs"] for k in s["kinds"].values()) == PER_KIND * len(seeds.KINDS)
+    assert sum(k["inputs"] for k in s["kinds"].values()) == PER_KIND * len(seeds.KINDS + seeds.STRATEGIES)
     assert not s["findings"], s["findings"][:10]
     # The mutants must exercise both outcomes, or the fuzzer tests nothing.
     assert sum(k["ok"] for k in s["kinds"].values()) > 0.02 * PER_KIND * len(seeds.KINDS)
     assert sum(k["meshioerror"] for k in s["kinds"].values()) > 0.5 * PER_KIND * len(seeds.KINDS)
+    # The valid strategies load every file; truncations are refused but for a few cuts
+    # inside trailing text (a last line without its newline).
+    for kind in ("ply_types", "bom"):
+        assert s["kinds"][kind]["ok"] == PER_KIND, s["kinds"][kind]
+    assert s["kinds"]["truncated"]["meshioerror"] > 0.8 * PER_KIND
+
+
+def test_writes_under_file_size_limits_keep_old_files():
+    findings = fuzz_io.fuzz_writes(60, seed=2026)
+    assert not findings, findings[:10]

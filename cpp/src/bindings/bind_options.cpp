@@ -136,6 +136,9 @@ void bind_options(py::module_& m) {
       .def_readwrite("threads", &CorrectionOptions::threads, "0: all OpenMP threads; 1: serial.")
       .def_readwrite("allow_open", &CorrectionOptions::allow_open,
                      "Correct the cone volume of a mesh that is not closed.")
+      .def_readwrite("allow_inversion", &CorrectionOptions::allow_inversion,
+                     "Accept a target volume of zero or of the other sign than the rest volume (the surface "
+                     "is flattened or turned inside out).")
       .def_readwrite("record_timings", &CorrectionOptions::record_timings,
                      "Add 'timings' (ms per pass) to the result (CPU backends).")
       .def("__repr__", [](const CorrectionOptions& o) {
@@ -148,6 +151,7 @@ void bind_options(py::module_& m) {
         if (!std::isnan(o.target_volume)) s << ", target_volume=" << o.target_volume;
         if (!o.part_targets.empty()) s << ", part_targets=(" << o.part_targets.size() << ",)";
         s << ", threads=" << o.threads << (o.allow_open ? ", allow_open=True" : "")
+          << (o.allow_inversion ? ", allow_inversion=True" : "")
           << (o.record_timings ? ", record_timings=True" : "") << ")";
         return s.str();
       });

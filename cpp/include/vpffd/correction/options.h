@@ -69,6 +69,11 @@ struct CorrectionOptions {
   /// Correct the volume of a mesh that is not closed. The "volume" of an open
   /// surface is that of the cone from the lattice centre and depends on it.
   bool allow_open = false;
+  /// Accept a target volume that is zero or of the other sign than the rest volume
+  /// (each part's, with parts): the surface is then flattened or turned inside out,
+  /// which a volume-preserving edit never means by accident. Open meshes (allow_open)
+  /// need not: their cone volumes may have either sign.
+  bool allow_inversion = false;
   /// Fill DeformResult::timings (a clock read per pass; nothing when false).
   bool record_timings = false;
 };

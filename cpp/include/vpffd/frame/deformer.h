@@ -465,6 +465,31 @@ class Deformer {
   }
 
  private:
+  /// A volume-preserving frame of a closed mesh: refuses a rest volume below the
+  /// normal doubles (a mesh of extent ~1e-150: its volume underflows, and "keeping"
+  /// 0 would keep nothing), and targets that are zero or of the other sign than the
+  /// rest volume (each part's with parts) unless `allow_inversion`. The same words on
+  /// every backend (the Vulkan backend plans through this Deformer).
+  void check_targets(const FramePlan& pl, bool allow_inversion) const {
+    const RestVolumes& rest = rest_volumes();
+    const int K = has_parts_ ? parts_.count : 1;
+    const Vector3d ext = lattice_.box_max - lattice_.box_min;
+    for (int k = 0; k < K; ++k) {
+      const double r = has_parts_ && K > 1 ? rest.parts[k] : rest.total;
+      const double t = has_parts_ ? pl.part_targets[k] : pl.target;
+      const std::string which = K > 1 ? detail::concat(" of part ", k) : std::string();
+      VPFFD_CHECK(std::abs(r) >= std::numeric_limits<double>::min(), "deform: the rest volume", which, " (", r,
+                  ") is below the smallest normal double (2.2e-308): it underflows at this scale (lattice box ",
+                  ext.maxCoeff(), " wide), so no correction can keep it; scale the mesh and lattice up (by a power "
+                  "of two) and the result back");
+      if (!allow_inversion)
+        VPFFD_CHECK(t != 0.0 && (t > 0) == (r > 0), "deform: the target volume", which, " (", t,
+                    ") is zero or of the other sign than the rest volume (", r,
+                    "): the surface would be flattened or turned inside out; pass allow_inversion=True if that "
+                    "is meant");
+    }
+  }
+
   /// plan() with the rest lock held by the caller (deform()).
   FramePlan plan_locked(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
 
@@ -1112,6 +1137,8 @@ inline FramePlan Deformer::plan_locked(const Eigen::Ref<const RowMatrixX3d>& P, 
     VPFFD_CHECK(opt.part_targets.empty(), "deform: ", opt.part_targets.size(),
                 " target volumes per part, but this Deformer was built without parts");
   }
+
+  if (opt.preserve_volume && !opt.allow_open) check_targets(plan, opt.allow_inversion);
 
   // Constraint sources: basis rows at their parameters.
   const size_t nc = opt.constraints.size();

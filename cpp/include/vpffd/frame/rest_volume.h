@@ -86,8 +86,9 @@ inline RestVolumes measure_rest_volumes(const Eigen::Ref<const RowMatrixX3d>& V,
   }
   // Volumes grow with the cube of the mesh's size; past ~1e102 they leave double range,
   // and every volume a frame reports or aims at would be inf or NaN.
-  VPFFD_CHECK(std::isfinite(r.total), where, ": the mesh's enclosed volume overflows double precision (", r.total,
-              "; coordinates up to ", V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
+  VPFFD_CHECK(std::isfinite(r.total), where,
+              ": the mesh's enclosed volume overflows double precision (it is beyond 1.8e308: coordinates up to ",
+              V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
   return r;
 }
 

@@ -1,0 +1,84 @@
+"""Volumes at the ends of the double range: every backend accepts and refuses the same
+scales (a mesh and its lattice scaled together from 1e-300 to 1e300), with messages
+that say what happened (the rest volume underflows, or overflows), and a target that
+would flatten or invert the surface is refused unless asked for."""
+import numpy as np
+import pytest
+
+import vpffd
+from vpffd import edits, shapes
+
+from test_vulkan import DEVICE, SEL
+
+SCALES = [1e-300, 1e-150, 1e-100, 1e-30, 1.0, 1e30, 1e100, 1e120, 1e300]
+
+
+def _outcome(scale, backend):
+    """('ok', relative volume error) or ('refused', message) for one volume-kept frame."""
+    m = shapes.icosphere(3)
+    mesh = vpffd.Mesh(m.vertices * scale, m.faces)
+    kw = dict(backend=backend, device=SEL) if backend == "vulkan" else dict(backend=backend)
+    try:
+        lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3, padding=0.1)
+        d = vpffd.Deformer(mesh, lat, **kw)
+        r = d.deform(edits.squash(lat.control_points, 0.8))
+    except (vpffd.InvalidInputError, vpffd.SolverError) as e:
+        return "refused", str(e)
+    return "ok", r.volume_error
+
+
+def _backends():
+    return ["serial"] + (["vulkan"] if DEVICE is not None else [])
+
+
+@pytest.mark.parametrize("scale", SCALES)
+def test_backends_agree_on_every_scale(scale):
+    outcomes = {b: _outcome(scale, b) for b in _backends()}
+    kinds = {b: o[0] for b, o in outcomes.items()}
+    assert len(set(kinds.values())) == 1, outcomes
+    kind, what = outcomes["serial"]
+    if kind == "ok":
+        # float64 on the CPU: a few units of rounding of the volume sums (a 642-vertex
+        # mesh: well within 1e-12); the device's bound is gpu_bounds' (6e-8 relative).
+        assert abs(what) < 1e-12, outcomes
+        if "vulkan" in outcomes:
+            assert abs(outcomes["vulkan"][1]) < 1e-6, outcomes
+    else:
+        for b, (_, msg) in outcomes.items():
+            assert ("underflow" in msg or "below the smallest normal double" in msg or "overflow" in msg
+                    or "beyond" in msg or "double range" in msg), (b, msg)
+    # In range, every scale works; the ends are refused, not "preserved" as 0 or inf.
+    if 1e-100 <= scale <= 1e100:
+        assert kind == "ok", outcomes
+    if scale in (1e-300, 1e-150, 1e120, 1e300):
+        assert kind == "refused", outcomes
+
+
+@pytest.mark.parametrize("backend", ["serial", "vulkan"])
+def test_targets_that_invert_are_refused_unless_allowed(backend):
+    if backend == "vulkan" and DEVICE is None:
+        pytest.skip("no Vulkan backend in this build or no suitable device")
+    mesh = shapes.icosphere(3)
+    lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3, padding=0.1)
+    kw = dict(backend=backend, device=SEL) if backend == "vulkan" else dict(backend=backend)
+    d = vpffd.Deformer(mesh, lat, **kw)
+    for t in (-1.0, 0.0):
+        with pytest.raises(vpffd.InvalidInputError, match="other sign.*allow_inversion"):
+            d.deform(target_volume=t)
+    r = d.deform(target_volume=-1.0, allow_inversion=True)
+    assert r.volume == pytest.approx(-1.0, rel=1e-6)
+    # An inward-facing mesh keeps its own (negative) volume by default.
+    inward = vpffd.Mesh(mesh.vertices, mesh.faces[:, ::-1])
+    d = vpffd.Deformer(inward, lat, **kw)
+    r = d.deform(edits.squash(lat.control_points, 0.8))
+    assert r.volume < 0 and r.volume == pytest.approx(d.rest_volume, rel=1e-6)
+
+
+def test_parts_targets_are_checked_per_part():
+    s = shapes.icosphere(2)
+    V = np.concatenate([0.4 * s.vertices - 0.5, 0.4 * s.vertices + 0.5])
+    mesh = vpffd.Mesh(V, np.concatenate([s.faces, s.faces + s.n_vertices]))
+    lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3, padding=0.1)
+    d = vpffd.Deformer(mesh, lat, parts="components")
+    with pytest.raises(vpffd.InvalidInputError, match="of part 1"):
+        d.deform(target_volume=[0.2, -0.2])
