@@ -28,6 +28,15 @@ def _size(size, where="render") -> tuple:
         raise InvalidInputError(f"{where}: bad image size {w} x {h}")
     return w, h
 
+def _unit(v):
+    """v / |v| without squaring its coordinates (a scene 1e200 across), or None for 0."""
+    big = float(np.max(np.abs(v)))
+    if not big > 0 or not math.isfinite(big):
+        return None
+    v = v / big
+    return v / np.linalg.norm(v)
+
+
 @dataclass
 class Camera:
     """A pinhole camera.
@@ -53,10 +62,11 @@ class Camera:
         self.fov = float(self.fov)
         if not 0 < self.fov < 180:
             raise InvalidInputError(f"Camera: fov must be in (0, 180) degrees, got {self.fov}")
-        f = self.target - self.eye
-        if not np.linalg.norm(f) > 0:
+        f = _unit(self.target - self.eye)
+        if f is None:
             raise InvalidInputError("Camera: eye and target coincide")
-        if not np.linalg.norm(np.cross(f, self.up)) > 1e-12 * np.linalg.norm(f) * np.linalg.norm(self.up):
+        up = _unit(self.up)
+        if up is None or not np.linalg.norm(np.cross(f, up)) > 1e-12:
             raise InvalidInputError("Camera: up is zero or parallel to the viewing direction")
 
     @classmethod
@@ -88,8 +98,12 @@ class Camera:
         if pts.shape[0] == 0 or not np.isfinite(pts).all():
             raise InvalidInputError("Camera.framing: no finite points to frame")
         lo, hi = _arrays.bounds(pts)
-        centre = 0.5 * (lo + hi)
-        radius = 0.5 * float(np.linalg.norm(hi - lo)) or 1.0
+        centre = 0.5 * lo + 0.5 * hi
+        # The half diagonal without squaring coordinates (a mesh 1e200 across has
+        # a finite radius whose square is not).
+        half = 0.5 * hi - 0.5 * lo
+        big = float(np.max(np.abs(half)))
+        radius = big * float(np.linalg.norm(half / big)) if big > 0 else 1.0
         d = _arrays.vector3(direction, "Camera.framing: direction")
         if not np.linalg.norm(d) > 0:
             raise InvalidInputError("Camera.framing: direction is zero")
@@ -102,10 +116,8 @@ class Camera:
 
     def _frame(self):
         """Forward, right and up unit vectors and tan(fov / 2)."""
-        f = self.target - self.eye
-        f = f / np.linalg.norm(f)
-        r = np.cross(f, self.up)
-        r = r / np.linalg.norm(r)
+        f = _unit(self.target - self.eye)
+        r = _unit(np.cross(f, _unit(self.up)))
         return f, r, np.cross(r, f), math.tan(math.radians(self.fov) / 2)
 
     def ray(self, x, y, size=(800, 600)):

@@ -82,3 +82,34 @@ def test_parts_targets_are_checked_per_part():
     d = vpffd.Deformer(mesh, lat, parts="components")
     with pytest.raises(vpffd.InvalidInputError, match="of part 1"):
         d.deform(target_volume=[0.2, -0.2])
+
+
+@pytest.mark.parametrize("backend", ["serial", "vulkan"])
+def test_targets_far_from_the_rest_volume_are_refused_alike(backend):
+    if backend == "vulkan" and DEVICE is None:
+        pytest.skip("no Vulkan backend in this build or no suitable device")
+    mesh = shapes.icosphere(3)
+    lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3, padding=0.1)
+    kw = dict(backend=backend, device=SEL) if backend == "vulkan" else dict(backend=backend)
+    d = vpffd.Deformer(mesh, lat, **kw)
+    V0 = d.rest_volume
+    for t in (1e300, V0 * 1e31, V0 * 1e-31, 1e-300):
+        with pytest.raises(vpffd.InvalidInputError, match="factor of 1e30"):
+            d.deform(target_volume=t)
+    # Within the bound targets are reached: on the CPU to rounding even 1e6 times off;
+    # the device's float32 positions keep moderate edits within gpu_bounds' 6e-8 relative.
+    for f in ((1e-6, 0.5, 8.0, 1e6) if backend == "serial" else (0.5, 2.0)):
+        r = d.deform(target_volume=V0 * f)
+        assert r.volume == pytest.approx(V0 * f, rel=1e-12 if backend == "serial" else 1e-6)
+
+
+@pytest.mark.skipif(not getattr(vpffd._core, "has_embree", False), reason="built without Embree")
+@pytest.mark.parametrize("scale", [1e-200, 1e200, 1e300])
+def test_pictures_at_any_scale(scale):
+    """The picture of a mesh 1e200 (or 1e-200) across is the picture at scale 1: the
+    camera and the rays are made without squaring world coordinates."""
+    m = shapes.icosphere(3)
+    ref = np.asarray(vpffd.rendering.render(m, size=(64, 48))).astype(int)
+    img = np.asarray(vpffd.rendering.render(vpffd.Mesh(m.vertices * scale, m.faces), size=(64, 48))).astype(int)
+    # Shading is the same; a few silhouette pixels may round the other way.
+    assert np.mean(np.abs(img - ref) > 8) < 0.01

@@ -106,12 +106,14 @@ Frame camera_frame(const RenderCamera& cam, int width, int height) {
               cam.fov_degrees);
   Frame fr;
   fr.eye = cam.eye;
+  // stableNorm: a scene 1e200 across (or 1e-200) has finite directions whose squared
+  // lengths are not.
   const Vector3d d = cam.target - cam.eye;
-  VPFFD_CHECK(d.norm() > 0, "camera: eye and target coincide");
-  fr.f = d.normalized();
-  const Vector3d r = fr.f.cross(cam.up);
-  VPFFD_CHECK(r.norm() > 1e-12 * cam.up.norm() && cam.up.norm() > 0,
-              "camera: up is zero or parallel to the viewing direction");
+  VPFFD_CHECK(d.stableNorm() > 0, "camera: eye and target coincide");
+  fr.f = d / d.stableNorm();
+  const double up = cam.up.stableNorm();
+  const Vector3d r = up > 0 ? Vector3d(fr.f.cross(cam.up / up)) : Vector3d::Zero();
+  VPFFD_CHECK(r.norm() > 1e-12, "camera: up is zero or parallel to the viewing direction");
   fr.r = r.normalized();
   fr.u = fr.r.cross(fr.f);
   fr.tan_h = std::tan(0.5 * cam.fov_degrees * M_PI / 180.0);

@@ -468,8 +468,10 @@ class Deformer {
   /// A volume-preserving frame of a closed mesh: refuses a rest volume below the
   /// normal doubles (a mesh of extent ~1e-150: its volume underflows, and "keeping"
   /// 0 would keep nothing), and targets that are zero or of the other sign than the
-  /// rest volume (each part's with parts) unless `allow_inversion`. The same words on
-  /// every backend (the Vulkan backend plans through this Deformer).
+  /// rest volume (each part's with parts) unless `allow_inversion`, and targets more
+  /// than 1e30 times larger or smaller than the rest volume. The same words on every
+  /// backend (the Vulkan backend plans through this Deformer).
+  static constexpr double kMaxVolumeRatio = 1e30;
   void check_targets(const FramePlan& pl, bool allow_inversion) const {
     const RestVolumes& rest = rest_volumes();
     const int K = has_parts_ ? parts_.count : 1;
@@ -487,6 +489,14 @@ class Deformer {
                     ") is zero or of the other sign than the rest volume (", r,
                     "): the surface would be flattened or turned inside out; pass allow_inversion=True if that "
                     "is meant");
+      // A volume 1e30 times the rest volume moves vertices ~1e10 times the mesh's size:
+      // past that the device's float32 positions (relative to the box, 3.4e38) run out
+      // well before double's. Both backends refuse the same targets.
+      VPFFD_CHECK(std::abs(t) <= kMaxVolumeRatio * std::abs(r) && std::abs(t) * kMaxVolumeRatio >= std::abs(r),
+                  "deform: the target volume", which, " (", t, ") is ", std::abs(t / r),
+                  " times the rest volume (", r, "): more than 1e30 times larger or smaller, which would move "
+                  "vertices far beyond the lattice (the Vulkan backend's float32 positions cannot hold them); give "
+                  "a target within a factor of 1e30 of the rest volume");
     }
   }
 
