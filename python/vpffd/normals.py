@@ -46,8 +46,8 @@ def deformed_normals(deformer, control_points=None, method: str = "exact", rest_
         finite-difference step of "tangent", world units (default: 1e-4 times the
         lattice box diagonal).
     """
-    from .deformer import Deformer
-    if not isinstance(deformer, Deformer):
+    # Duck-typed (what is used below), so that this layer does not import the Deformer's.
+    if not all(hasattr(deformer, a) for a in ("_d", "_P", "_threads", "lattice", "mesh")):
         raise TypeError(f"deformed_normals: expected a vpffd.Deformer, got {type(deformer).__name__}")
     m = deformer.mesh
     N0 = m._vertex_normals() if rest_normals is None else _arrays.points(

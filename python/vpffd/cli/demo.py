@@ -30,7 +30,7 @@ from ..animate import BouncingBall, Twist, run_animation
 from ..deformer import Deformer
 from ..lattice import Lattice
 from ..mesh import Mesh
-from .frames import bar, frame_dir, save_frame, write_gif
+from .frames import bar, frame_dir, label as _label, save_frame, write_gif
 
 # (key, label, preserve, axes); the paper's Figure 6 rows are plain, xy and z.
 VARIANTS = (
@@ -123,16 +123,6 @@ def _bounds(scene: Scene) -> np.ndarray:
         lo = np.minimum(lo, r.vertices.min(axis=(0, 1)))
         hi = np.maximum(hi, r.vertices.max(axis=(0, 1)))
     return np.stack([lo, hi])
-
-
-def _label(img, lines):
-    from PIL import ImageDraw
-    d = ImageDraw.Draw(img)
-    y = 3
-    for text in lines:
-        d.text((5, y), text, fill=(20, 20, 20))
-        y += 12
-    return img
 
 
 def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> list:

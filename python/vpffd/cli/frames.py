@@ -10,6 +10,17 @@ from pathlib import Path
 from .._files import replaced_path
 
 
+def label(img, lines):
+    """Draws `lines` of text at the top left of the PIL image `img` (12 px apart); returns it."""
+    from PIL import ImageDraw
+    d = ImageDraw.Draw(img)
+    y = 3
+    for text in lines:
+        d.text((5, y), text, fill=(20, 20, 20))
+        y += 12
+    return img
+
+
 def frame_dir(out: Path, key: str, frames: int) -> Path:
     """``out/key``, created, without the ``frame_NNN.png`` files this run of
     ``frames`` frames will not overwrite (only files with our names are removed)."""

@@ -234,8 +234,7 @@ def render(scene: MotionScene, out: Path, size, progress=None) -> list:
     from ..colormap import volume_change_colors
     from ..comparison import fit_camera
     from ..rendering import render as draw
-    from .demo import _label
-    from .frames import frame_dir, save_frame, write_gif
+    from .frames import frame_dir, label as _label, save_frame, write_gif
     w, h = size
     keys = [k for k, _, _ in MOTION_VARIANTS]
     labels = {k: lab for k, lab, _ in MOTION_VARIANTS}

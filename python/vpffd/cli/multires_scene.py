@@ -132,8 +132,7 @@ def render(scene: MultiresScene, out: Path, size, progress=None) -> list:
     from ..colormap import colormap
     from ..comparison import fit_camera
     from ..rendering import render as draw
-    from .demo import _label
-    from .frames import frame_dir, save_frame, write_gif
+    from .frames import frame_dir, label as _label, save_frame, write_gif
     w, h = size
     r = scene.results
     faces = scene.mesh.faces
