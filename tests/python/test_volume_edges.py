@@ -113,3 +113,13 @@ def test_pictures_at_any_scale(scale):
     img = np.asarray(vpffd.rendering.render(vpffd.Mesh(m.vertices * scale, m.faces), size=(64, 48))).astype(int)
     # Shading is the same; a few silhouette pixels may round the other way.
     assert np.mean(np.abs(img - ref) > 8) < 0.01
+
+
+def test_a_zero_target_allowed_explicitly_is_not_bounded_below():
+    """allow_inversion=True with target 0 flattens the surface: the 1e30 ratio bound
+    (a guard against targets far from the rest volume) does not refuse it."""
+    mesh = shapes.icosphere(3)
+    lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3, padding=0.1)
+    d = vpffd.Deformer(mesh, lat, backend="serial")
+    r = d.deform(target_volume=0.0, axes="z", allow_inversion=True)
+    assert abs(r.volume) <= 1e-12 * d.rest_volume

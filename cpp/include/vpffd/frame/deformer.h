@@ -492,7 +492,9 @@ class Deformer {
       // A volume 1e30 times the rest volume moves vertices ~1e10 times the mesh's size:
       // past that the device's float32 positions (relative to the box, 3.4e38) run out
       // well before double's. Both backends refuse the same targets.
-      VPFFD_CHECK(std::abs(t) <= kMaxVolumeRatio * std::abs(r) && std::abs(t) * kMaxVolumeRatio >= std::abs(r),
+      // (A zero target, allowed with allow_inversion above, flattens: no bound below.)
+      VPFFD_CHECK(std::abs(t) <= kMaxVolumeRatio * std::abs(r) &&
+                      (t == 0.0 || std::abs(t) * kMaxVolumeRatio >= std::abs(r)),
                   "deform: the target volume", which, " (", t, ") is ", std::abs(t / r),
                   " times the rest volume (", r, "): more than 1e30 times larger or smaller, which would move "
                   "vertices far beyond the lattice (the Vulkan backend's float32 positions cannot hold them); give "
