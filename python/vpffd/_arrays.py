@@ -155,3 +155,28 @@ def axis(a, name: str = "axis", who: str | None = None) -> int:
         if isinstance(a, (int, np.integer)) and a in (0, 1, 2):
             return int(a)
     raise _core.InvalidInputError(f"{_label(name, who)}: expected 'x', 'y', 'z' or 0..2, got {a!r}")
+
+
+def out_array(out, rows: int, name: str, inputs=()):
+    """The caller's output array for a frame (``out=``), checked: None, or a writable
+    C-contiguous float64 array of shape (rows, 3) that shares no memory with any of
+    ``inputs`` (the frame reads them while it writes). Returned as is: the frame is
+    written into this very array."""
+    if out is None:
+        return None
+    if not isinstance(out, np.ndarray):
+        raise TypeError(f"{name}: expected a numpy array, got {type(out).__name__}")
+    if out.dtype != np.float64:
+        raise TypeError(f"{name}: expected dtype float64, got {out.dtype}")
+    if out.shape != (rows, 3):
+        raise _core.InvalidInputError(f"{name}: expected shape ({rows}, 3), got {out.shape}")
+    if not out.flags.c_contiguous:
+        raise _core.InvalidInputError(f"{name}: must be C-contiguous (a copy, such as np.ascontiguousarray makes, "
+                                      "would be filled instead of the array given)")
+    if not out.flags.writeable:
+        raise _core.InvalidInputError(f"{name}: is read-only")
+    for what, a in inputs:
+        if isinstance(a, np.ndarray) and np.may_share_memory(out, a):
+            raise _core.InvalidInputError(f"{name}: shares memory with {what}, which the frame reads while it "
+                                          "writes; give a separate array")
+    return out

@@ -185,7 +185,7 @@ class Deformer:
         ...
     def basis_transpose(self, values: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
         ...
-    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions = ...) -> dict:
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions = ..., out: typing.Any = None) -> dict:
         """
         One frame (vpffd::Deformer::deform): the result as a dict (vertices, control_points, offsets, volumes, steps, [part volumes], [timings]).
         """
@@ -195,7 +195,7 @@ class Deformer:
         ...
     def face_matrix_nnz(self, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> int:
         ...
-    def ffd(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+    def ffd(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0, out: typing.Any = None) -> typing.Any:
         ...
     def jacobian_determinants(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
         ...
@@ -306,7 +306,7 @@ class MultiresFFD:
     frame_bytes_per_vertex: typing.ClassVar[int] = 140
     def __init__(self, multires: Multires, lattice: LatticeSpec, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
         ...
-    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0, out: typing.Any = None, out_normals: typing.Any = None) -> tuple:
         """
         (vertices (V, 3), unit normals (V, 3)).
         """
@@ -366,7 +366,7 @@ class RbfMap:
 class VulkanDeformer:
     def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], lattice: LatticeSpec, outside: str = 'error', device: str = '', precision: str = 'auto', parts: typing.Any = None) -> None:
         ...
-    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions = ..., read_vertices: bool = True, normals: bool = False) -> dict:
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions = ..., read_vertices: bool = True, normals: bool = False, out: typing.Any = None, out_normals: typing.Any = None) -> dict:
         """
         One frame (see vpffd::vulkan::VulkanDeformer::deform), the options as for Deformer.deform. normals=True adds 'normals': the (V, 3) unit normals of the deformed surface, computed on the device in the same submission.
         """
@@ -439,7 +439,7 @@ class VulkanMultires:
     frame_bytes_per_vertex: typing.ClassVar[int] = 76
     def __init__(self, multires: Multires, lattice: LatticeSpec, device: str = '', precision: str = 'auto') -> None:
         ...
-    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> tuple[typing.Any, typing.Any]:
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], out: typing.Any = None, out_normals: typing.Any = None) -> tuple[typing.Any, typing.Any]:
         """
         (vertices (V, 3), approximate unit normals (V, 3)), input order.
         """
@@ -530,7 +530,7 @@ def deformed_normals_tangent(lattice: LatticeSpec, control_points: typing.Annota
     """
 def edge_report(faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"]) -> dict:
     ...
-def ffd_points(lattice: LatticeSpec, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], outside: str = 'error', threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+def ffd_points(lattice: LatticeSpec, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], outside: str = 'error', threads: typing.SupportsInt | typing.SupportsIndex = 0, out: typing.Any = None) -> typing.Any:
     ...
 def greville(arg0: collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex], arg1: typing.SupportsInt | typing.SupportsIndex, arg2: typing.SupportsInt | typing.SupportsIndex) -> list[float]:
     ...

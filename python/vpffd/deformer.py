@@ -396,9 +396,14 @@ class Deformer:
         return self.lattice._control(control_points)
 
     @_frame
-    def ffd(self, control_points=None) -> np.ndarray:
-        """Plain FFD of the vertices: (V, 3). ``control_points`` default to the lattice's."""
-        return self._d.ffd(self._P(control_points), self._threads)
+    def ffd(self, control_points=None, out=None) -> np.ndarray:
+        """Plain FFD of the vertices: (V, 3). ``control_points`` default to the lattice's.
+        ``out``: a (V, 3) float64 C-contiguous writable array to write the vertices
+        into (and return), as ``deform``'s."""
+        P = self._P(control_points)
+        out = _arrays.out_array(out, self._mesh.n_vertices, "ffd: out",
+                                [("control_points", P), ("control_points", control_points)])
+        return self._d.ffd(P, self._threads, out)
 
     @_frame
     def jacobians(self, control_points=None) -> np.ndarray:
@@ -454,7 +459,7 @@ class Deformer:
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", weights=None,
                fixed=None, constraints=None, target_volume=None, method: str = "traversal",
                allow_open: bool = False, rounds: int = 1, on_fold: str = "ignore",
-               normals: bool = False, allow_inversion: bool = False) -> DeformResult:
+               normals: bool = False, allow_inversion: bool = False, out=None, out_normals=None) -> DeformResult:
         """Deforms the mesh and corrects its volume.
 
         Parameters
@@ -484,6 +489,15 @@ class Deformer:
         allow_inversion : bool
             accept such a target: the surface is then flattened or turned inside
             out. (An open mesh's cone volume, ``allow_open``, may have either sign.)
+        out : (V, 3) float64 array, optional
+            the frame's vertices are written into this array (C-contiguous,
+            writable, sharing no memory with the inputs), bit for bit those of a
+            call without it, and ``result.vertices`` is this array: a frame loop
+            that passes the same array every time allocates no vertex output.
+            It is written only by a frame that succeeds (with ``on_fold="raise"``
+            it holds the refused frame).
+        out_normals : (V, 3) float64 array, optional
+            the same for ``result.normals`` (with ``normals=True``).
         method : {"traversal", "csr"}
             how the coefficients are computed (same result to ~1e-12). The
             "vulkan" backend always runs the traversal: it accepts "csr" (refused
@@ -532,6 +546,13 @@ class Deformer:
         if not isinstance(allow_inversion, (bool, np.bool_)):
             raise TypeError(f"allow_inversion: expected a bool, got {type(allow_inversion).__name__}")
         P = self._P(control_points)
+        nv = self._mesh.n_vertices
+        inputs = [("control_points", P), ("control_points", control_points), ("weights", weights),
+                  ("fixed", fixed)]
+        out = _arrays.out_array(out, nv, "deform: out", inputs)
+        out_normals = _arrays.out_array(out_normals, nv, "deform: out_normals", inputs + [("out", out)])
+        if out_normals is not None and not normals:
+            raise InvalidInputError("deform: out_normals is given but normals=False; pass normals=True")
         w, fx = correction_arrays(self, P, weights, fixed)
         cons = []
         for i, c in enumerate(constraints or []):
@@ -582,9 +603,9 @@ class Deformer:
         opts = self._frame_options(bool(preserve_volume), axes, w, fx, cons, tv, part_targets, method,
                                    bool(allow_open), int(rounds), bool(allow_inversion))
         if self._vk is not None:
-            r = self._vk.deform(P, opts, normals=bool(normals))
+            r = self._vk.deform(P, opts, normals=bool(normals), out=out, out_normals=out_normals)
         else:
-            r = self._core.deform(P, opts)
+            r = self._core.deform(P, opts, out)
         folds = _folds.check_frame(self, r["control_points"], on_fold, self._restore_last_frame)
         if self._vk is not None:
             self._last_frame = (np.array(P), opts)  # P may be a view of the caller's array
@@ -605,7 +626,8 @@ class Deformer:
             rest_volume=rest, constraint_error=r["constraint_error"], steps=r["steps"],
             # The device always runs the traversal: report what ran, not what was asked.
             backend=self.backend, method="traversal" if self._vk is not None else method, folds=folds,
-            faces=self._mesh.faces, normals=self._frame_normals(r, normals), part_volumes=r.get("part_volumes"),
+            faces=self._mesh.faces, normals=self._frame_normals(r, normals, out_normals),
+            part_volumes=r.get("part_volumes"),
             part_volumes_before=r.get("part_volumes_before"), part_target_volumes=r.get("part_targets"))
 
     def _frame_options(self, preserve_volume, axes, w, fx, cons, tv, part_targets, method, allow_open, rounds,
@@ -626,14 +648,14 @@ class Deformer:
             self._plain_options[key] = opts
         return opts
 
-    def _frame_normals(self, r, wanted):
+    def _frame_normals(self, r, wanted, out=None):
         """The frame's normals: the device's, or on the CPU deformed_normals of its control points."""
         if not wanted:
             return None
         if "normals" in r:
             return r["normals"]
         from .normals import deformed_normals
-        return deformed_normals(self, r["control_points"])
+        return deformed_normals(self, r["control_points"], out=out)
 
     def _restore_last_frame(self) -> None:
         """Vulkan: runs the last kept frame again (the rest shape before any), so

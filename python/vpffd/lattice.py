@@ -338,15 +338,20 @@ class Lattice:
             X = self._spec.wrap_points(X)[0]
         return self._spec.parameters(X)
 
-    def deform_points(self, points, control_points=None, outside="error") -> np.ndarray:
+    def deform_points(self, points, control_points=None, outside="error", out=None) -> np.ndarray:
         """Plain FFD of arbitrary rest-space points: (n, 3) -> (n, 3).
 
         ``outside='extrapolate'`` continues the boundary polynomial pieces for points
         outside the box instead of raising. Along periodic axes nothing is outside:
-        points are wrapped into the box (see the class's ``seam``)."""
+        points are wrapped into the box (see the class's ``seam``). ``out``: an
+        (n, 3) float64 C-contiguous writable array to write the result into (and
+        return), sharing no memory with ``points`` or the control points."""
         P = self._control(control_points)
         X = _arrays.points(points, "Lattice.deform_points: points")
-        return _core.ffd_points(self._spec, self._expand(P), X, outside)
+        out = _arrays.out_array(out, X.shape[0], "Lattice.deform_points: out",
+                                [("points", X), ("control_points", P), ("points", points),
+                                 ("control_points", control_points)])
+        return _core.ffd_points(self._spec, self._expand(P), X, outside, 0, out)
 
     def basis_matrix(self, points, outside="error"):
         """(n, N) scipy CSR matrix of the basis functions at rest-space points:

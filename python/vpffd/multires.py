@@ -183,10 +183,13 @@ class MultiresResult:
     backend: str
 
 
-def _result(mr: Multires, X, N, B, normals, control_points, volume_mode, backend) -> MultiresResult:
+def _result(mr: Multires, X, N, B, normals, control_points, volume_mode, backend, out_normals=None) -> MultiresResult:
     F = mr.mesh.faces
     if normals == "exact":
         N = _core.vertex_normals(X, F)
+        if out_normals is not None:
+            out_normals[...] = N
+            N = out_normals
     rest, brest, closed = mr._rest_volumes
     vol, bvol = _volume(X, F, closed), _volume(B, F, closed)
     return MultiresResult(vertices=X, normals=N, base_vertices=B, control_points=control_points, volume=vol,
@@ -352,7 +355,8 @@ class MultiresDeformer:
         return self._base.ffd(Pc)
 
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", volume: str = "base",
-               normals: str = "approximate", weights=None, fixed=None, rounds: int = 1) -> MultiresResult:
+               normals: str = "approximate", weights=None, fixed=None, rounds: int = 1, out=None,
+               out_normals=None) -> MultiresResult:
         """One frame.
 
         Parameters
@@ -376,6 +380,10 @@ class MultiresDeformer:
             vertices: they need the neighbours, which the per-vertex dispatch has not,
             and the Vulkan Deformer's normals are those of the FFD of the fine mesh,
             not of the rebuilt one).
+        out, out_normals : (V, 3) float64 arrays, optional
+            the rebuilt vertices and their normals are written into these
+            (C-contiguous, writable, no memory shared with the inputs; the same bits
+            as without), and the result's ``vertices`` / ``normals`` are these arrays.
         """
         if not isinstance(preserve_volume, (bool, np.bool_)):
             raise TypeError(f"preserve_volume: expected a bool, got {type(preserve_volume).__name__}")
@@ -383,12 +391,20 @@ class MultiresDeformer:
             raise InvalidInputError(f"volume: expected 'base' or 'fine', got {volume!r}")
         _check_normals(normals)
         P = self.lattice._control(control_points)
+        nv = self.multires.n_vertices
+        inputs = [("control_points", P), ("control_points", control_points), ("weights", weights), ("fixed", fixed)]
+        out = _arrays.out_array(out, nv, "MultiresDeformer.deform: out", inputs)
+        out_normals = _arrays.out_array(out_normals, nv, "MultiresDeformer.deform: out_normals",
+                                        inputs + [("out", out)])
+        # The kernel writes the approximate normals; "exact" ones are made afterwards (_result).
+        kernel_normals = out_normals if normals == "approximate" else None
         if preserve_volume and not self.multires.mesh.is_closed:
             raise InvalidInputError(
                 "MultiresDeformer.deform: the mesh does not bound a volume, so it cannot be preserved "
                 f"(pass preserve_volume=False):\n{self.multires.mesh.check()}")
         if self._vk is not None:
-            return self._deform_vulkan(P, preserve_volume, axes, volume, normals, weights, fixed, rounds)
+            return self._deform_vulkan(P, preserve_volume, axes, volume, normals, weights, fixed, rounds, out,
+                                       kernel_normals, out_normals)
         if preserve_volume:
             d = self._base if volume == "base" else self._fine_deformer()
             r = d.deform(P, preserve_volume=True, axes=axes, weights=weights, fixed=fixed, rounds=rounds)
@@ -397,10 +413,12 @@ class MultiresDeformer:
         else:
             Pc = P
             B = self._base_ffd(Pc)
-        X, N = self._ffd.deform(Pc, self._threads)
-        return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend)
+        X, N = self._ffd.deform(Pc, self._threads, out, kernel_normals)
+        return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend,
+                       out_normals)
 
-    def _deform_vulkan(self, P, preserve_volume, axes, volume, normals, weights, fixed, rounds):
+    def _deform_vulkan(self, P, preserve_volume, axes, volume, normals, weights, fixed, rounds, out=None,
+                       kernel_normals=None, out_normals=None):
         """One submission: the base's (or, volume="fine", the fine mesh's) Vulkan Deformer
         frame, the reconstruction from its corrected control points and, for "fine",
         the base's FFD of them."""
@@ -413,9 +431,10 @@ class MultiresDeformer:
         else:
             d = self._base
             opts = _core.CorrectionOptions(preserve_volume=False, threads=self._threads)
-        X, N, B, r = self._vk.deform_after(d._vk, P, opts, base)
+        X, N, B, r = self._vk.deform_after(d._vk, P, opts, base, out, kernel_normals)
         Pc = r["control_points"]
-        return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend)
+        return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend,
+                       out_normals)
 
 
 class RBFDeformer:

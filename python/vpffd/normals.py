@@ -25,7 +25,7 @@ def vertex_normals(mesh) -> np.ndarray:
 
 
 def deformed_normals(deformer, control_points=None, method: str = "exact", rest_normals=None,
-                     eps=None) -> np.ndarray:
+                     eps=None, out=None) -> np.ndarray:
     """(V, 3) unit normals of the deformed surface at the deformed vertices.
 
     Parameters
@@ -45,6 +45,9 @@ def deformed_normals(deformer, control_points=None, method: str = "exact", rest_
     eps : float, optional
         finite-difference step of "tangent", world units (default: 1e-4 times the
         lattice box diagonal).
+    out : (V, 3) float64 array, optional
+        written with the normals and returned (C-contiguous, writable; see
+        ``Deformer.deform``'s ``out``).
     """
     # Duck-typed (what is used below), so that this layer does not import the Deformer's.
     if not all(hasattr(deformer, a) for a in ("_d", "_P", "_threads", "lattice", "mesh")):
@@ -54,7 +57,10 @@ def deformed_normals(deformer, control_points=None, method: str = "exact", rest_
         rest_normals, "deformed_normals: rest_normals", rows=m.n_vertices)
     if method == "exact":
         # The Jacobians in blocks inside the core, never as a (V, 3, 3) array.
-        return deformer._d.deformed_normals(deformer._P(control_points), N0, deformer._threads)
+        P = deformer._P(control_points)
+        out = _arrays.out_array(out, m.n_vertices, "deformed_normals: out", [("control_points", P),
+                                                                              ("rest_normals", N0)])
+        return deformer._d.deformed_normals(P, N0, deformer._threads, out)
     if method == "tangent":
         lat = deformer.lattice
         if eps is None:
@@ -63,7 +69,12 @@ def deformed_normals(deformer, control_points=None, method: str = "exact", rest_
         if not (np.isfinite(eps) and eps > 0):
             raise InvalidInputError(f"deformed_normals: eps must be positive, got {eps}")
         P = lat._control(control_points)
-        return _core.deformed_normals_tangent(lat._spec, lat._expand(P), m.vertices, N0, eps)
+        N = _core.deformed_normals_tangent(lat._spec, lat._expand(P), m.vertices, N0, eps)
+        if out is None:
+            return N
+        out = _arrays.out_array(out, m.n_vertices, "deformed_normals: out", [("control_points", P)])
+        out[...] = N  # the tangent method has no kernel that writes in place
+        return out
     raise InvalidInputError(f"deformed_normals: method must be 'exact' or 'tangent', got {method!r}")
 
 

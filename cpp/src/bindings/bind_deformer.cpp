@@ -99,11 +99,23 @@ void bind_deformer(py::module_& m) {
       .def_property_readonly("origin", &Deformer::origin)
       .def(
           "ffd",
-          [](const Deformer& d, RefV P, int threads) {
-            py::gil_scoped_release release;
-            return d.ffd(P, threads);
+          [](const Deformer& d, RefV P, int threads, const py::object& out) -> py::object {
+            double* into = out_rows(out, d.n_vertices(), "ffd");
+            if (!into) {
+              RowMatrixX3d X;
+              {
+                py::gil_scoped_release release;
+                X = d.ffd(P, threads);
+              }
+              return py::cast(std::move(X));
+            }
+            {
+              py::gil_scoped_release release;
+              d.ffd(P, into, threads);
+            }
+            return out;
           },
-          py::arg("control_points"), py::arg("threads") = 0)
+          py::arg("control_points"), py::arg("threads") = 0, py::arg("out") = py::none())
       .def(
           "jacobians",
           [](const Deformer& d, RefV P, int threads) {
@@ -113,11 +125,23 @@ void bind_deformer(py::module_& m) {
           py::arg("control_points"), py::arg("threads") = 0)
       .def(
           "deformed_normals",
-          [](const Deformer& d, RefV P, RefV N0, int threads) {
-            py::gil_scoped_release release;
-            return d.deformed_normals(P, N0, threads);
+          [](const Deformer& d, RefV P, RefV N0, int threads, const py::object& out) -> py::object {
+            double* into = out_rows(out, d.n_vertices(), "deformed_normals");
+            if (!into) {
+              RowMatrixX3d N;
+              {
+                py::gil_scoped_release release;
+                N = d.deformed_normals(P, N0, threads);
+              }
+              return py::cast(std::move(N));
+            }
+            {
+              py::gil_scoped_release release;
+              d.deformed_normals(P, N0, into, threads);
+            }
+            return out;
           },
-          py::arg("control_points"), py::arg("rest_normals"), py::arg("threads") = 0)
+          py::arg("control_points"), py::arg("rest_normals"), py::arg("threads") = 0, py::arg("out") = py::none())
       .def(
           "basis_transpose",
           [](const Deformer& d, const Eigen::Ref<const VectorXd>& w, int threads) {
@@ -176,15 +200,18 @@ void bind_deformer(py::module_& m) {
           py::arg("vertices"), py::arg("axis"), py::arg("method") = "traversal", py::arg("threads") = 0)
       .def(
           "deform",
-          [](const Deformer& d, RefV P, const CorrectionOptions& o) {
+          [](const Deformer& d, RefV P, const CorrectionOptions& o, const py::object& out) {
+            double* into = out_rows(out, d.n_vertices(), "deform");
             DeformResult r;
             {
               py::gil_scoped_release release;
-              r = d.deform(P, o);
+              r = d.deform(P, o, into);
             }
-            return result_to_python(std::move(r));
+            py::dict res = result_to_python(std::move(r));
+            if (into) res["vertices"] = out;
+            return res;
           },
-          py::arg("control_points"), py::arg("options") = CorrectionOptions(),
+          py::arg("control_points"), py::arg("options") = CorrectionOptions(), py::arg("out") = py::none(),
           "One frame (vpffd::Deformer::deform): the result as a dict (vertices, control_points, offsets, volumes, "
           "steps, [part volumes], [timings]).");
 }

@@ -160,13 +160,18 @@ void bind_lattice(py::module_& m) {
       py::arg("lattice"), py::arg("points"), py::arg("outside") = "error");
   m.def(
       "ffd_points",
-      [](const Lattice& L, RefV P, RefV X, const std::string& outside, int threads) {
+      [](const Lattice& L, RefV P, RefV X, const std::string& outside, int threads, const py::object& out) {
         const OutsidePolicy pol = parse_outside_policy(outside);
-        py::gil_scoped_release release;
-        return ffd_points(L, P, X, pol, threads);
+        double* into = out_rows(out, X.rows(), "deform_points");
+        RowMatrixX3d Y;
+        {
+          py::gil_scoped_release release;
+          Y = ffd_points(L, P, X, pol, threads, into);
+        }
+        return into ? out : py::cast(std::move(Y));
       },
       py::arg("lattice"), py::arg("control_points"), py::arg("points"), py::arg("outside") = "error",
-      py::arg("threads") = 0);
+      py::arg("threads") = 0, py::arg("out") = py::none());
 }
 
 }  // namespace vpffd::bindings

@@ -24,15 +24,21 @@ py::tuple frame_to_python(MultiresFrame&& f) {
   return py::make_tuple(py::cast(std::move(f.vertices)), py::cast(std::move(f.normals)));
 }
 
-/// A MultiresFFD frame method bound with the GIL released while it runs.
-auto frame_method(MultiresFrame (MultiresFFD::*method)(const Eigen::Ref<const RowMatrixX3d>&, int) const) {
-  return [method](const MultiresFFD& d, RefV P, int threads) {
+/// A MultiresFFD frame method bound with the GIL released while it runs: Python's
+/// (vertices, normals), written into the caller's `out` / `out_normals` where given.
+auto frame_method(void (MultiresFFD::*method)(const Eigen::Ref<const RowMatrixX3d>&, double*, double*, int) const) {
+  return [method](const MultiresFFD& d, RefV P, int threads, const py::object& out, const py::object& out_normals) {
+    const Index nv = d.multires().n_vertices();
+    double* X = out_rows(out, nv, "deform");
+    double* N = out_rows(out_normals, nv, "deform (normals)");
     MultiresFrame f;
+    if (!X) f.vertices.resize(nv, 3);
+    if (!N) f.normals.resize(nv, 3);
     {
       py::gil_scoped_release release;
-      f = (d.*method)(P, threads);
+      (d.*method)(P, X ? X : f.vertices.data(), N ? N : f.normals.data(), threads);
     }
-    return frame_to_python(std::move(f));
+    return py::make_tuple(X ? out : py::cast(std::move(f.vertices)), N ? out_normals : py::cast(std::move(f.normals)));
   };
 }
 
@@ -76,11 +82,13 @@ void bind_multires(py::module_& m) {
       .def(
           "deform",
           frame_method(&MultiresFFD::deform),
-          py::arg("control_points"), py::arg("threads") = 0, "(vertices (V, 3), unit normals (V, 3)).")
+          py::arg("control_points"), py::arg("threads") = 0, py::arg("out") = py::none(),
+          py::arg("out_normals") = py::none(), "(vertices (V, 3), unit normals (V, 3)).")
       .def(
           "deform_per_point",
           frame_method(&MultiresFFD::deform_per_point),
-          py::arg("control_points"), py::arg("threads") = 0,
+          py::arg("control_points"), py::arg("threads") = 0, py::arg("out") = py::none(),
+          py::arg("out_normals") = py::none(),
           "deform() with the per-point kernel (its reference): (vertices (V, 3), unit normals (V, 3)).")
       .def_property_readonly("uses_cell_runs", &MultiresFFD::uses_cell_runs)
       .def_property_readonly("held_bytes_per_vertex", &MultiresFFD::held_bytes_per_vertex)

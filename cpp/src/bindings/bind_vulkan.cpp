@@ -135,19 +135,32 @@ void bind_vulkan(py::module_& m) {
                              })
       .def(
           "deform",
-          [](VulkanDeformer& d, RefV P, const CorrectionOptions& o, bool read_vertices, bool normals) {
+          [](VulkanDeformer& d, RefV P, const CorrectionOptions& o, bool read_vertices, bool normals,
+             const py::object& out, const py::object& out_normals) {
+            const Index nv = static_cast<Index>(d.vertex_order().size());  // cpu() might re-embed
+            double* into = read_vertices ? out_rows(out, nv, "deform") : nullptr;
+            double* into_n = normals ? out_rows(out_normals, nv, "deform (normals)") : nullptr;
             DeformResult r;
             RowMatrixX3d N;
             {
               py::gil_scoped_release release;
-              r = d.deform(P, o, read_vertices, normals ? &N : nullptr);
+              if (into || into_n) {
+                // read back into the caller's arrays; the vertices into a buffer of ours
+                // only when asked for without `out`.
+                RowMatrixX3d X(into || !read_vertices ? 0 : nv, 3);
+                r = d.deform(P, o, into ? into : (read_vertices ? X.data() : nullptr), into_n);
+                if (!into && read_vertices) r.vertices = std::move(X);
+              } else {
+                r = d.deform(P, o, read_vertices, normals ? &N : nullptr);
+              }
             }
-            py::dict out = result_to_python(std::move(r));
-            if (normals) out["normals"] = py::cast(std::move(N));
-            return out;
+            py::dict res = result_to_python(std::move(r));
+            if (into) res["vertices"] = out;
+            if (normals) res["normals"] = into_n ? out_normals : py::cast(std::move(N));
+            return res;
           },
           py::arg("control_points"), py::arg("options") = CorrectionOptions(), py::arg("read_vertices") = true,
-          py::arg("normals") = false,
+          py::arg("normals") = false, py::arg("out") = py::none(), py::arg("out_normals") = py::none(),
           "One frame (see vpffd::vulkan::VulkanDeformer::deform), the options as for Deformer.deform. normals=True "
           "adds 'normals': the (V, 3) unit normals of the deformed surface, computed on the device in the same "
           "submission.");
@@ -187,28 +200,40 @@ void bind_vulkan(py::module_& m) {
            })
       .def(
           "deform",
-          [](VulkanMultires& d, RefV P) {
+          [](VulkanMultires& d, RefV P, const py::object& out, const py::object& out_normals) {
+            const Index nv = static_cast<Index>(d.vertex_order().size());
+            double* X = out_rows(out, nv, "deform");
+            double* N = out_rows(out_normals, nv, "deform (normals)");
             MultiresFrame f;
+            if (!X) f.vertices.resize(nv, 3);
+            if (!N) f.normals.resize(nv, 3);
             {
               py::gil_scoped_release release;
-              f = d.deform(P);
+              d.deform(P, X ? X : f.vertices.data(), N ? N : f.normals.data());
             }
-            return py::make_tuple(py::cast(std::move(f.vertices)), py::cast(std::move(f.normals)));
+            return py::make_tuple(X ? out : py::cast(std::move(f.vertices)),
+                                  N ? out_normals : py::cast(std::move(f.normals)));
           },
-          py::arg("control_points"), "(vertices (V, 3), approximate unit normals (V, 3)), input order.")
+          py::arg("control_points"), py::arg("out") = py::none(), py::arg("out_normals") = py::none(),
+          "(vertices (V, 3), approximate unit normals (V, 3)), input order.")
       .def(
           "deform_after",
           [](VulkanMultires& d, VulkanDeformer& correction, RefV P, const CorrectionOptions& o,
-             VulkanDeformer* base) {
+             VulkanDeformer* base, const py::object& out, const py::object& out_normals) {
+            const Index nv = static_cast<Index>(d.vertex_order().size());
+            double* X = out_rows(out, nv, "deform");
+            double* N = out_rows(out_normals, nv, "deform (normals)");
             vulkan::MultiresDeviceFrame f;
             {
               py::gil_scoped_release release;
-              f = d.deform(correction, P, o, base);
+              f = d.deform(correction, P, o, base, X, N);
             }
-            return py::make_tuple(py::cast(std::move(f.frame.vertices)), py::cast(std::move(f.frame.normals)),
+            return py::make_tuple(X ? out : py::cast(std::move(f.frame.vertices)),
+                                  N ? out_normals : py::cast(std::move(f.frame.normals)),
                                   py::cast(std::move(f.base_vertices)), result_to_python(std::move(f.correction)));
           },
           py::arg("correction"), py::arg("control_points"), py::arg("options"), py::arg("base") = nullptr,
+          py::arg("out") = py::none(), py::arg("out_normals") = py::none(),
           "One submission: correction's frame (as VulkanDeformer.deform), then the reconstruction from its "
           "corrected control points (and, with base, the base Deformer's FFD of them): (vertices, normals, "
           "base vertices, the correction's result dict without 'vertices').");

@@ -35,6 +35,21 @@ inline py::tuple csr_to_python(CsrMatrix&& A) {
                         move_vec(std::move(A.indptr)), py::make_tuple(A.rows, A.cols));
 }
 
+/// The caller's output array `out` (None, or a (rows, 3) float64 C-contiguous writable
+/// array: the Python layer checks it first and words the errors; this is the last
+/// line) as a pointer to fill, or null.
+inline double* out_rows(const py::object& out, Index rows, const char* where) {
+  if (out.is_none()) return nullptr;
+  if (!py::isinstance<py::array>(out)) throw InvalidInputError(std::string(where) + ": out must be a numpy array");
+  const py::array a = py::reinterpret_borrow<py::array>(out);
+  const bool ok = a.dtype().is(py::dtype::of<double>()) && a.ndim() == 2 && a.shape(0) == rows && a.shape(1) == 3 &&
+                  (a.flags() & py::array::c_style) && a.writeable();
+  if (!ok)
+    throw InvalidInputError(std::string(where) + ": out must be a writable C-contiguous float64 array of shape (" +
+                            std::to_string(rows) + ", 3)");
+  return static_cast<double*>(const_cast<void*>(a.data()));
+}
+
 /// A DeformResult as the dict that Deformer.deform returns (all backends).
 inline py::dict result_to_python(DeformResult&& r) {
   py::dict d;

@@ -407,13 +407,17 @@ struct VulkanDeformer::Impl {
 
   // Device slot i's float32 triple of `rb`, times `s` plus `o`, as input vertex slot[i].
   RowMatrixX3d unpack(const Buffer& rb, double s, const Vector3d& o) const {
-    const float* x = static_cast<const float*>(rb.mapped());
     RowMatrixX3d out(nv, 3);
+    unpack(rb, s, o, out.data());
+    return out;
+  }
+  // The same into the caller's #V x 3 row-major array.
+  void unpack(const Buffer& rb, double s, const Vector3d& o, double* out) const {
+    const float* x = static_cast<const float*>(rb.mapped());
     parallel_range(nv, 0, [&](Index b, Index e) {
       for (Index i = b; i < e; ++i)
-        for (int a = 0; a < 3; ++a) out(slot[i], a) = double(x[3 * i + a]) * s + o[a];
+        for (int a = 0; a < 3; ++a) out[3 * Index(slot[i]) + a] = double(x[3 * i + a]) * s + o[a];
     });
-    return out;
   }
 
   // After a frame with device steps failed: its vertices back to those before it.
@@ -442,8 +446,12 @@ struct VulkanDeformer::Impl {
 
   // One frame (VulkanDeformer::deform); `tail`, when given, runs after it in the same
   // submission (see FrameTail).
+  // `out_vertices` / `out_normals` (#V x 3 row-major, or null): the caller's arrays,
+  // filled instead of the result's vertices / *normals (a frame with out_normals
+  // computes normals).
   DeformResult run_frame(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt, bool read_vertices,
-                         RowMatrixX3d* normals, const detail::FrameTail* tail);
+                         RowMatrixX3d* normals, const detail::FrameTail* tail, double* out_vertices = nullptr,
+                         double* out_normals = nullptr);
 
   // Into `cb` (a caller's, begun; frame_mutex held): the plain FFD of the control points
   // in buf[bP] and the copy of the vertices to rb_X (readback() must have run).

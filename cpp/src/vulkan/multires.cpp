@@ -72,6 +72,7 @@ struct VulkanMultires::Impl {
   void record_tail(VulkanDeformer::Impl& src, bool corrected, VulkanDeformer::Impl* base);
   void read_timings(FrameTimings& tm);
   void unpack(MultiresFrame& out) const;
+  void unpack(double* X, double* N) const;  // into the caller's #V x 3 arrays
   void submit_and_wait(VkCommandBuffer cb);
 };
 
@@ -169,13 +170,17 @@ void VulkanMultires::Impl::read_timings(FrameTimings& tm) {
 void VulkanMultires::Impl::unpack(MultiresFrame& out) const {
   out.vertices.resize(nv, 3);
   out.normals.resize(nv, 3);
+  unpack(out.vertices.data(), out.normals.data());
+}
+
+void VulkanMultires::Impl::unpack(double* X, double* N) const {
   const float* x = static_cast<const float*>(rb_X.mapped());
   const float* n = static_cast<const float*>(rb_N.mapped());
   for (Index i = 0; i < nv; ++i) {
     const Index v = order[i];
     for (int a = 0; a < 3; ++a) {
-      out.vertices(v, a) = double(x[3 * i + a]) * scale + origin[a];
-      out.normals(v, a) = double(n[3 * i + a]);
+      if (X) X[3 * v + a] = double(x[3 * i + a]) * scale + origin[a];
+      if (N) N[3 * v + a] = double(n[3 * i + a]);
     }
   }
 }
@@ -326,6 +331,14 @@ std::uint64_t VulkanMultires::normal_buffer_handle() const {
 const std::vector<std::int32_t>& VulkanMultires::vertex_order() const { return impl_->order; }
 
 MultiresFrame VulkanMultires::deform(const Eigen::Ref<const RowMatrixX3d>& P) {
+  MultiresFrame out;
+  out.vertices.resize(impl_->nv, 3);
+  out.normals.resize(impl_->nv, 3);
+  deform(P, out.vertices.data(), out.normals.data());
+  return out;
+}
+
+void VulkanMultires::deform(const Eigen::Ref<const RowMatrixX3d>& P, double* vertices, double* normals) {
   const auto t_start = std::chrono::steady_clock::now();
   Impl& m = *impl_;
   m.cpu->check_control_points(P);
@@ -347,11 +360,9 @@ MultiresFrame VulkanMultires::deform(const Eigen::Ref<const RowMatrixX3d>& P) {
   m.submit_and_wait(m.frame_cb);
   FrameTimings tm;
   m.read_timings(tm);
-  MultiresFrame out;
-  m.unpack(out);
+  m.unpack(vertices, normals);
   tm.host_total = detail::ms_since(t_start);
   m.timings = tm;
-  return out;
 }
 
 namespace {
@@ -363,7 +374,8 @@ bool same_lattice(const Lattice& a, const Lattice& b) {
 }  // namespace
 
 MultiresDeviceFrame VulkanMultires::deform(VulkanDeformer& correction, const Eigen::Ref<const RowMatrixX3d>& P,
-                                           const CorrectionOptions& opt, VulkanDeformer* base) {
+                                           const CorrectionOptions& opt, VulkanDeformer* base, double* vertices,
+                                           double* normals) {
   const auto t_start = std::chrono::steady_clock::now();
   Impl& m = *impl_;
   VulkanDeformer::Impl& src = *correction.impl_;
@@ -398,7 +410,13 @@ MultiresDeviceFrame VulkanMultires::deform(VulkanDeformer& correction, const Eig
   };
   tail.finish = [&] {
     m.read_timings(tm);
-    m.unpack(out.frame);
+    if (vertices || normals) {
+      if (!vertices) out.frame.vertices.resize(m.nv, 3);
+      if (!normals) out.frame.normals.resize(m.nv, 3);
+      m.unpack(vertices ? vertices : out.frame.vertices.data(), normals ? normals : out.frame.normals.data());
+    } else {
+      m.unpack(out.frame);
+    }
     if (b) out.base_vertices = b->unpack_vertices();
   };
   out.correction = src.run_frame(P, opt, /*read_vertices=*/b == nullptr, nullptr, &tail);

@@ -91,9 +91,15 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   return impl_->run_frame(P, opt, read_vertices, normals, nullptr);
 }
 
+DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
+                                    double* vertices, double* normals) {
+  return impl_->run_frame(P, opt, /*read_vertices=*/vertices != nullptr, nullptr, nullptr, vertices, normals);
+}
+
 DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
                                              bool read_vertices, RowMatrixX3d* normals,
-                                             const detail::FrameTail* tail) {
+                                             const detail::FrameTail* tail, double* out_vertices,
+                                             double* out_normals) {
   static const char axis_name[3] = {'x', 'y', 'z'};
   const auto t_start = std::chrono::steady_clock::now();
   Impl& m = *this;
@@ -134,7 +140,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   Shape shape;
   shape.measure = measure;
   shape.open = !cpu.is_closed();
-  shape.normals = normals != nullptr;
+  shape.normals = normals != nullptr || out_normals != nullptr;
   DeformResult res;
   res.offsets = RowMatrixX3d::Zero(N, 3);
   if (opt.preserve_volume) {
@@ -162,7 +168,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
       throw dependent_rows_error(axis_name[opt.axes[0]], true, std::numeric_limits<double>::quiet_NaN());
     }
   }
-  if (normals && m.prepare_normals()) aux = true;  // before frame_commands: it may rebind
+  if (shape.normals && m.prepare_normals()) aux = true;  // before frame_commands: it may rebind
   const bool new_invw = m.invw_uploaded.size() != N || m.invw_uploaded != inv_weight;
   if (new_invw && shape.mode == Shape::DeviceSteps) {
     put_reals(m.up_invw.mapped(), inv_weight.data(), N, m.ff);
@@ -218,7 +224,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   m.submit_and_wait(cbs, n_cbs);
   m.embed_pending = false;
   if (new_invw && shape.mode == Shape::DeviceSteps) m.invw_uploaded = inv_weight;
-  if (normals) m.normals_ready = true;
+  if (shape.normals) m.normals_ready = true;
 
   FrameTimings tm;
   const std::uint32_t ns = rec.n_steps;
@@ -325,8 +331,12 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   if (has_parts && opt.preserve_volume) res.part_targets = pl.part_targets;
   res.constraint_error = constraint_error(rows, expand_points(cpu.ties(), res.control_points), opt.constraints);
   // Under the frame's lock: another thread's frame would overwrite rb_X.
-  if (read_vertices) res.vertices = m.unpack_vertices();
+  if (read_vertices && out_vertices)
+    m.unpack(m.rb_X, m.scale, m.origin, out_vertices);
+  else if (read_vertices)
+    res.vertices = m.unpack_vertices();
   if (normals) *normals = m.unpack_normals();
+  if (out_normals) m.unpack(m.rb_N, 1.0, Vector3d::Zero(), out_normals);
   if (tail) tail->finish();
   tm.host_total = ms_since(t_start);
   m.timings = std::move(tm);

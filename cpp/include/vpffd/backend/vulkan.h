@@ -157,6 +157,11 @@ class VulkanDeformer {
   /// @throws as Deformer::deform; a device failure throws DeviceError
   DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
                       bool read_vertices = true, RowMatrixX3d* normals = nullptr);
+  /// deform() into the caller's #V x 3 row-major arrays (the same bits): the vertices
+  /// into `vertices` (null: not read back, as read_vertices false) and, when `normals`
+  /// is not null, the normals into it. The result's `vertices` is empty.
+  DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt, double* vertices,
+                      double* normals);
 
   /// #V x 3 vertices of the last frame that succeeded, in the input order (the rest
   /// mesh before any frame, and after set_rest_vertices until the next frame).

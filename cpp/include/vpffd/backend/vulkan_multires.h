@@ -71,6 +71,8 @@ class VulkanMultires {
   ///         more than 2^100 box half-diagonals from the box centre (float32 range on
   ///         the device); DeviceError on a device failure
   MultiresFrame deform(const Eigen::Ref<const RowMatrixX3d>& P);
+  /// deform() into the caller's #V x 3 row-major arrays (both not null; the same bits).
+  void deform(const Eigen::Ref<const RowMatrixX3d>& P, double* vertices, double* normals);
 
   /// One frame in one submission: `correction`'s frame (P and opt exactly as
   /// correction.deform(P, opt)), then, on the device, its corrected control points
@@ -88,8 +90,11 @@ class VulkanMultires {
   /// @throws InvalidInputError for a Deformer of another device, lattice or precision
   ///         (or base == &correction), and whatever correction.deform throws (then no
   ///         reconstruction is returned)
+  /// `vertices` / `normals` (#V x 3 row-major, or null): the caller's arrays, filled
+  /// instead of the frame's (then empty).
   MultiresDeviceFrame deform(VulkanDeformer& correction, const Eigen::Ref<const RowMatrixX3d>& P,
-                             const CorrectionOptions& opt, VulkanDeformer* base = nullptr);
+                             const CorrectionOptions& opt, VulkanDeformer* base = nullptr,
+                             double* vertices = nullptr, double* normals = nullptr);
 
   /// The CPU counterpart on the same decomposition and lattice (its embedding is the
   /// device's).

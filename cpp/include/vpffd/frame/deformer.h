@@ -343,11 +343,15 @@ class Deformer {
 
   /// Plain FFD of the mesh vertices. @param P N x 3 control points. @returns #V x 3
   RowMatrixX3d ffd(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
+    RowMatrixX3d X(n_vertices(), 3);
+    ffd(P, X.data(), threads);
+    return X;
+  }
+  /// ffd() into the caller's #V x 3 row-major array `out` (the same bits).
+  void ffd(const Eigen::Ref<const RowMatrixX3d>& P, double* out, int threads = 0) const {
     check_control_points(P, "ffd");
     std::shared_lock<RestLock> frame(rest_lock_);
-    RowMatrixX3d X(n_vertices(), 3);
-    eval_ffd(P, X.data(), threads, order_.data());
-    return X;
+    eval_ffd(P, out, threads, order_.data());
   }
 
   /// Jacobians dD/dx at the vertices: #V x 9, row-major 3x3 per vertex.
@@ -386,18 +390,24 @@ class Deformer {
   /// @returns #V x 3 unit normals (zero where cof(J) n vanishes)
   RowMatrixX3d deformed_normals(const Eigen::Ref<const RowMatrixX3d>& P, const Eigen::Ref<const RowMatrixX3d>& N0,
                                 int threads = 0) const {
+    RowMatrixX3d N(n_vertices(), 3);
+    deformed_normals(P, N0, N.data(), threads);
+    return N;
+  }
+  /// deformed_normals() into the caller's #V x 3 row-major array `out` (the same bits).
+  void deformed_normals(const Eigen::Ref<const RowMatrixX3d>& P, const Eigen::Ref<const RowMatrixX3d>& N0,
+                        double* out, int threads = 0) const {
     check_control_points(P, "deformed_normals");
     VPFFD_CHECK(N0.rows() == n_vertices(), "deformed_normals: ", N0.rows(), " rest normals for ", n_vertices(),
                 " vertices");
     VPFFD_CHECK(N0.allFinite(), "deformed_normals: the rest normals contain NaN or Inf");
     std::shared_lock<RestLock> frame(rest_lock_);
     const int twist = twist_axis(lattice_);
-    RowMatrixX3d N(n_vertices(), 3);
     for_each_jacobian(P, threads, [&](Index v, double* j) {
       unmirror_jacobian(lattice_, twist, V_.row(v).transpose(), j);
-      N.row(v) = detail::cofactor_normal(j, N0.row(v).transpose()).transpose();
+      const Vector3d n = detail::cofactor_normal(j, N0.row(v).transpose());
+      for (int a = 0; a < 3; ++a) out[3 * v + a] = n[a];
     });
-    return N;
   }
 
   /// B^T w: sum_v B_c(u_v) w_v for each distinct control point c (the copies of a
@@ -455,7 +465,12 @@ class Deformer {
   /// One frame: plain FFD with control points P (N x 3), then the volume
   /// correction and point constraints of `opt`.
   /// @throws InvalidInputError for bad options, SolverError when no correction exists
-  DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const;
+  DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
+    return deform(P, opt, nullptr);
+  }
+  /// deform() with the vertices written into the caller's #V x 3 row-major array
+  /// `out` (the same bits; the result's `vertices` is then empty). Null: into the result.
+  DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt, double* out) const;
 
   /// Checks P and `opt` and prepares what any backend needs for the frame.
   /// @throws InvalidInputError with the same messages as deform()
@@ -921,10 +936,8 @@ class Deformer {
   /// from where it is (rank_) and written in sequence: written where it goes instead,
   /// the scattered stores cost twice as much (dragon, 1 thread, fused into the last
   /// gather: 5.4-5.9 ms for that gather against 3.6-4.0 for the gather and this copy).
-  RowMatrixX3d to_caller_order(const RowMatrixX3d& Xs, int threads) const {
-    RowMatrixX3d X(Xs.rows(), 3);
+  void to_caller_order(const RowMatrixX3d& Xs, double* dst, int threads) const {
     const double* src = Xs.data();
-    double* dst = X.data();
     parallel_range(Xs.rows(), threads, [&](Index b, Index e) {
       for (Index v = b; v < e; ++v) {
         const double* p = src + 3 * Index(rank_[v]);
@@ -933,7 +946,6 @@ class Deformer {
         dst[3 * v + 2] = p[2];
       }
     });
-    return X;
   }
 
   void gather(const VectorXd& D, double* X, int axis, int threads) const {
@@ -1206,7 +1218,8 @@ inline FramePlan Deformer::plan_locked(const Eigen::Ref<const RowMatrixX3d>& P, 
   return plan;
 }
 
-inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt) const {
+inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
+                                     double* out) const {
   static const char axis_name[3] = {'x', 'y', 'z'};
   using Clock = std::chrono::steady_clock;
   const Index N = n_control_points();
@@ -1240,9 +1253,12 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
   const bool direct = !pl.correcting && K == 1;
   const int skip = first_step_sets(pl, opt);
   RowMatrixX3d Xs(direct ? 0 : n_vertices(), 3);  // processing order
-  if (direct) {
+  if (!out) {
     res.vertices.resize(n_vertices(), 3);
-    eval_ffd(P, res.vertices.data(), threads, order_.data());
+    out = res.vertices.data();
+  }
+  if (direct) {
+    eval_ffd(P, out, threads, order_.data());
   } else {
     eval_ffd(P, Xs.data(), threads, nullptr, skip);
   }
@@ -1304,7 +1320,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     // Nothing moves: one volume is both the before and the after.
     if (pl.measure)
       res.volume_before = res.volume =
-          direct ? signed_volume(res.vertices, F_, origin_, threads)
+          direct ? signed_volume(out, F_, origin_, threads)
                  : signed_volume(X, processing_faces(), origin_, threads);
     lap(tm.volume);
   } else if (!opt.preserve_volume) {
@@ -1371,7 +1387,7 @@ inline DeformResult Deformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, co
     if (opt.preserve_volume) res.part_targets = pl.part_targets;
   }
   res.control_points = P + res.offsets;
-  if (!direct) res.vertices = to_caller_order(Xs, threads);
+  if (!direct) to_caller_order(Xs, out, threads);
   lap(tm.reorder);
   res.constraint_error = constraint_error(rows, expand_points(ties_, res.control_points), opt.constraints);
   if (timed) {

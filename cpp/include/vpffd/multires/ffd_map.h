@@ -175,32 +175,42 @@ class MultiresFFD {
   /// units in the last place of the largest term; see foot_runs.h); any thread count
   /// gives the same bits.
   MultiresFrame deform(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
-    if (!uses_cell_runs()) return deform_per_point(P, threads);
+    MultiresFrame out;
+    out.vertices.resize(m_->n_vertices(), 3);
+    out.normals.resize(m_->n_vertices(), 3);
+    deform(P, out.vertices.data(), out.normals.data(), threads);
+    return out;
+  }
+  /// deform() into the caller's #V x 3 row-major arrays X (vertices) and N (normals).
+  void deform(const Eigen::Ref<const RowMatrixX3d>& P, double* X, double* N, int threads = 0) const {
+    if (!uses_cell_runs()) return deform_per_point(P, X, N, threads);
     check_control_points(P);
     const PointColumns Q(P);
     const double* const* Pc = Q.c;
-    const Index n = m_->n_vertices();
-    MultiresFrame out;
-    out.vertices.resize(n, 3);
-    out.normals.resize(n, 3);
-    parallel_range(n, threads, [&](Index b, Index e) {
+    parallel_range(m_->n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
         if constexpr (decltype(K)::value > 0)
-          detail::reconstruct_runs<decltype(K)::value>(tables_, runs_, du_dx_, Pc, out.vertices.data(),
-                                                       out.normals.data(), b, e);
+          detail::reconstruct_runs<decltype(K)::value>(tables_, runs_, du_dx_, Pc, X, N, b, e);
       });
     });
-    return out;
   }
 
   /// The same frame with the per-point kernel (basis values and derivatives at each
   /// foot point): the reference of deform().
   MultiresFrame deform_per_point(const Eigen::Ref<const RowMatrixX3d>& P, int threads = 0) const {
+    MultiresFrame out;
+    out.vertices.resize(m_->n_vertices(), 3);
+    out.normals.resize(m_->n_vertices(), 3);
+    deform_per_point(P, out.vertices.data(), out.normals.data(), threads);
+    return out;
+  }
+  /// deform_per_point() into the caller's #V x 3 row-major arrays X and N.
+  void deform_per_point(const Eigen::Ref<const RowMatrixX3d>& P, double* X, double* N, int threads = 0) const {
     check_control_points(P);
     const PointColumns Q(P);
     const double* const* Pc = Q.c;
-    return detail::dispatch_order(tables_, [&](auto K) {
-      return reconstruct(
+    detail::dispatch_order(tables_, [&](auto K) {
+      reconstruct(
           *m_,
           [&](Index i, const Vector3d&, const Vector3d& su, const Vector3d& sv, Vector3d& s1, Vector3d& su1,
               Vector3d& sv1) {
@@ -209,7 +219,7 @@ class MultiresFFD {
             su1 = J * su;
             sv1 = J * sv;
           },
-          threads);
+          X, N, threads);
     });
   }
 

@@ -38,19 +38,25 @@ VPFFD_ALWAYS_INLINE void reconstruct_vertex(const Vector3d& s1, const Vector3d& 
 template <class Map>
 MultiresFrame reconstruct(const Multires& m, Map&& map, int threads = 0) {
   MultiresFrame out;
-  const Index n = m.n_vertices();
-  out.vertices.resize(n, 3);
-  out.normals.resize(n, 3);
-  parallel_range(n, threads, [&](Index b, Index e) {
+  out.vertices.resize(m.n_vertices(), 3);
+  out.normals.resize(m.n_vertices(), 3);
+  reconstruct(m, map, out.vertices.data(), out.normals.data(), threads);
+  return out;
+}
+/// The same into the caller's #V x 3 row-major arrays X (vertices) and N (normals).
+template <class Map>
+void reconstruct(const Multires& m, Map&& map, double* X, double* N, int threads = 0) {
+  parallel_range(m.n_vertices(), threads, [&](Index b, Index e) {
     for (Index i = b; i < e; ++i) {
       Vector3d s, su, sv, p, n;
       map(i, m.foot_point(i), m.tangent_u(i), m.tangent_v(i), s, su, sv);
       reconstruct_vertex(s, su, sv, m.d[i], m.coefficients(i), p, n);
-      out.vertices.row(i) = p.transpose();
-      out.normals.row(i) = n.transpose();
+      for (int a = 0; a < 3; ++a) {
+        X[3 * i + a] = p[a];
+        N[3 * i + a] = n[a];
+      }
     }
   });
-  return out;
 }
 
 }  // namespace vpffd

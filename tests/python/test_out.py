@@ -1,0 +1,114 @@
+"""``out=``: frames written into the caller's arrays on every backend and entry point.
+The array given is the result's (same memory), bit for bit what a call without it
+returns; bad arrays are refused with clear errors before anything is written."""
+import numpy as np
+import pytest
+
+import vpffd
+from vpffd import edits, shapes
+
+from test_vulkan import DEVICE, SEL
+
+BACKENDS = ["serial", "openmp", "vulkan"]
+
+
+def _kw(backend):
+    if backend == "openmp" and not vpffd._core.has_openmp():
+        pytest.skip("no OpenMP in this build")
+    if backend == "vulkan" and DEVICE is None:
+        pytest.skip("no Vulkan backend in this build or no suitable device")
+    return dict(backend=backend, device=SEL) if backend == "vulkan" else dict(backend=backend)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    mesh = shapes.icosphere(3)
+    lat = vpffd.Lattice.around(mesh, shape=(6, 6, 6), degree=3, padding=0.05)
+    return mesh, lat, edits.twist(edits.squash(lat.control_points, 0.8), 30)
+
+
+def _fresh(n):
+    return np.full((n, 3), np.nan)  # a frame that writes nothing would leave NaN
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_deformer_frames_into_out(scene, backend):
+    mesh, lat, P = scene
+    d = vpffd.Deformer(mesh, lat, **_kw(backend))
+    n = mesh.n_vertices
+    out = _fresh(n)
+    X = d.ffd(P, out=out)
+    assert X is out and np.array_equal(out, d.ffd(P))
+    for kw in (dict(), dict(preserve_volume=False), dict(axes="zx", rounds=2), dict(normals=True)):
+        out, outn = _fresh(n), _fresh(n)
+        extra = dict(out_normals=outn) if kw.get("normals") else {}
+        r = d.deform(P, out=out, **kw, **extra)
+        ref = d.deform(P, **kw)
+        assert r.vertices is out and np.array_equal(out, ref.vertices), kw
+        assert r.volume == ref.volume
+        if kw.get("normals"):
+            assert r.normals is outn and np.array_equal(outn, ref.normals)
+    # The same array frame after frame: a loop that allocates no output.
+    out = _fresh(n)
+    for f in (0.9, 0.8, 0.7):
+        r = d.deform(edits.squash(lat.control_points, f), out=out)
+        assert r.vertices is out
+        assert np.array_equal(out, d.deform(edits.squash(lat.control_points, f)).vertices)
+
+
+def test_deform_points_into_out(scene):
+    mesh, lat, P = scene
+    X = mesh.vertices[::3].copy()
+    out = _fresh(len(X))
+    assert lat.deform_points(X, P, out=out) is out
+    assert np.array_equal(out, lat.deform_points(X, P))
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_multires_frames_into_out(scene, backend):
+    mesh, lat, P = scene
+    md = vpffd.MultiresDeformer(vpffd.Multires(mesh, smoothing=5), lat, **_kw(backend))
+    n = mesh.n_vertices
+    for kw in (dict(), dict(preserve_volume=False), dict(volume="fine"), dict(normals="exact")):
+        out, outn = _fresh(n), _fresh(n)
+        r = md.deform(P, out=out, out_normals=outn, **kw)
+        ref = md.deform(P, **kw)
+        assert r.vertices is out and r.normals is outn, kw
+        assert np.array_equal(out, ref.vertices) and np.array_equal(outn, ref.normals), kw
+    out = _fresh(n)
+    r = md.deform(P, out=out)  # the normals in an array of the frame's own
+    assert r.vertices is out and np.array_equal(r.normals, md.deform(P).normals)
+
+
+def test_bad_out_arrays_are_refused_and_untouched(scene):
+    mesh, lat, P = scene
+    d = vpffd.Deformer(mesh, lat, backend="serial")
+    n = mesh.n_vertices
+    Pflat = np.ascontiguousarray(P.reshape(-1, 3))
+    shared = np.zeros((n + len(Pflat), 3))
+    shared[:len(Pflat)] = Pflat
+    cases = [
+        (list(np.zeros((n, 3))), TypeError, "numpy array"),
+        (np.zeros((n, 3), np.float32), TypeError, "float64"),
+        (np.zeros((n, 2)), vpffd.InvalidInputError, r"shape \(%d, 3\)" % n),
+        (np.zeros((n + 1, 3)), vpffd.InvalidInputError, "shape"),
+        (np.zeros((n, 3), order="F"), vpffd.InvalidInputError, "C-contiguous"),
+        (np.zeros((2 * n, 3))[::2], vpffd.InvalidInputError, "C-contiguous"),
+    ]
+    ro = np.zeros((n, 3))
+    ro.flags.writeable = False
+    cases.append((ro, vpffd.InvalidInputError, "read-only"))
+    for bad, err, match in cases:
+        before = np.array(bad, copy=True)
+        for call in (lambda: d.ffd(P, out=bad), lambda: d.deform(P, out=bad)):
+            with pytest.raises(err, match=match):
+                call()
+        assert np.array_equal(np.asarray(bad), before)
+    # Memory shared with the control points the frame reads.
+    with pytest.raises(vpffd.InvalidInputError, match="shares memory with control_points"):
+        d.deform(shared[:len(Pflat)], out=shared[len(Pflat) - 1:len(Pflat) - 1 + n])
+    with pytest.raises(vpffd.InvalidInputError, match="normals=True"):
+        d.deform(P, out_normals=np.zeros((n, 3)))
+    X = mesh.vertices.copy()
+    with pytest.raises(vpffd.InvalidInputError, match="shares memory with points"):
+        lat.deform_points(X, P, out=X)
