@@ -18,6 +18,7 @@ from .lattice import Lattice, _check_memory
 from .backends import (AUTO_GPU_MIN_VERTICES, _requested_precision, _resolve_backend,  # noqa: F401
                        available_backends, vulkan_devices)
 from ._rest_lock import RestLock
+from ._spare import Spares
 from .mesh import Mesh
 from .result import DeformResult, RestVolumeSource
 
@@ -173,6 +174,7 @@ class Deformer:
         # building one from keywords costs about as much as the FFD of 500 vertices, and an
         # animation asks for the same few every frame. The core only reads them.
         self._plain_options = {}
+        self._spares = Spares()  # output arrays of earlier frames that nobody holds (_spare.py)
         # DeformResult.rest_volume before it is summed (result.py): the current rest
         # mesh's source, and every source handed out to a result and not read yet.
         self._rest_source = RestVolumeSource(self)
@@ -403,7 +405,11 @@ class Deformer:
         P = self._P(control_points)
         out = _arrays.out_array(out, self._mesh.n_vertices, "ffd: out",
                                 [("control_points", P), ("control_points", control_points)])
-        return self._d.ffd(P, self._threads, out)
+        if out is not None:
+            return self._d.ffd(P, self._threads, out)
+        X = self._d.ffd(P, self._threads, self._spares.take("ffd", (self._mesh.n_vertices, 3)))
+        self._spares.keep("ffd", X)
+        return X
 
     @_frame
     def jacobians(self, control_points=None) -> np.ndarray:
@@ -495,7 +501,10 @@ class Deformer:
             call without it, and ``result.vertices`` is this array: a frame loop
             that passes the same array every time allocates no vertex output.
             It is written only by a frame that succeeds (with ``on_fold="raise"``
-            it holds the refused frame).
+            it holds the refused frame). Without ``out`` a frame may reuse the
+            vertex array of an earlier frame once nothing holds that array any more
+            (no reference, view or result; ``vpffd._spare``): results are never
+            overwritten, only raw addresses taken from dropped arrays go stale.
         out_normals : (V, 3) float64 array, optional
             the same for ``result.normals`` (with ``normals=True``).
         method : {"traversal", "csr"}
@@ -602,10 +611,13 @@ class Deformer:
                           "centre, which depends on where that centre is", stacklevel=2)
         opts = self._frame_options(bool(preserve_volume), axes, w, fx, cons, tv, part_targets, method,
                                    bool(allow_open), int(rounds), bool(allow_inversion))
+        into = out if out is not None else self._spares.take("deform", (nv, 3))
         if self._vk is not None:
-            r = self._vk.deform(P, opts, normals=bool(normals), out=out, out_normals=out_normals)
+            r = self._vk.deform(P, opts, normals=bool(normals), out=into, out_normals=out_normals)
         else:
-            r = self._core.deform(P, opts, out)
+            r = self._core.deform(P, opts, into)
+        if out is None:
+            self._spares.keep("deform", r["vertices"])
         folds = _folds.check_frame(self, r["control_points"], on_fold, self._restore_last_frame)
         if self._vk is not None:
             self._last_frame = (np.array(P), opts)  # P may be a view of the caller's array

@@ -28,6 +28,7 @@ import threading
 import warnings
 
 from . import _arrays, _core
+from ._spare import Spares
 from .backends import _requested_precision, _resolve_backend
 from .deformer import Deformer, correction_arrays
 from .lattice import Lattice
@@ -313,6 +314,7 @@ class MultiresDeformer:
         self._base = Deformer(multires.base, lattice, **self._deformer_args)
         self._fine = None
         self._fine_lock = threading.Lock()
+        self._spares = Spares()
         self._ffd = _core.MultiresFFD(multires._m, lattice._spec, self._threads) if self._vk is None else None
 
     @property
@@ -397,14 +399,21 @@ class MultiresDeformer:
         out_normals = _arrays.out_array(out_normals, nv, "MultiresDeformer.deform: out_normals",
                                         inputs + [("out", out)])
         # The kernel writes the approximate normals; "exact" ones are made afterwards (_result).
+        # Without out arrays, those of an earlier frame that nobody holds are reused (_spare.py).
         kernel_normals = out_normals if normals == "approximate" else None
+        given = out, out_normals
+        if out is None:
+            out = self._spares.take("vertices", (nv, 3))
+        if kernel_normals is None and out_normals is None:
+            kernel_normals = self._spares.take("normals", (nv, 3))
         if preserve_volume and not self.multires.mesh.is_closed:
             raise InvalidInputError(
                 "MultiresDeformer.deform: the mesh does not bound a volume, so it cannot be preserved "
                 f"(pass preserve_volume=False):\n{self.multires.mesh.check()}")
         if self._vk is not None:
-            return self._deform_vulkan(P, preserve_volume, axes, volume, normals, weights, fixed, rounds, out,
-                                       kernel_normals, out_normals)
+            r = self._deform_vulkan(P, preserve_volume, axes, volume, normals, weights, fixed, rounds, out,
+                                    kernel_normals, out_normals)
+            return self._keep_spares(r, given, normals)
         if preserve_volume:
             d = self._base if volume == "base" else self._fine_deformer()
             r = d.deform(P, preserve_volume=True, axes=axes, weights=weights, fixed=fixed, rounds=rounds)
@@ -414,8 +423,17 @@ class MultiresDeformer:
             Pc = P
             B = self._base_ffd(Pc)
         X, N = self._ffd.deform(Pc, self._threads, out, kernel_normals)
-        return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend,
-                       out_normals)
+        r = _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend,
+                    out_normals)
+        return self._keep_spares(r, given, normals)
+
+    def _keep_spares(self, r, given, normals):
+        """The frame's own output arrays, for a later frame once nobody holds them."""
+        if given[0] is None:
+            self._spares.keep("vertices", r.vertices)
+        if given[1] is None and normals == "approximate":
+            self._spares.keep("normals", r.normals)
+        return r
 
     def _deform_vulkan(self, P, preserve_volume, axes, volume, normals, weights, fixed, rounds, out=None,
                        kernel_normals=None, out_normals=None):

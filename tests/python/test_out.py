@@ -112,3 +112,46 @@ def test_bad_out_arrays_are_refused_and_untouched(scene):
     X = mesh.vertices.copy()
     with pytest.raises(vpffd.InvalidInputError, match="shares memory with points"):
         lat.deform_points(X, P, out=X)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_frames_reuse_only_arrays_nobody_holds(scene, backend):
+    """Without out=, a frame writes into the array of an earlier frame once nothing
+    holds it (no page faults for a fresh output); held results and views never change."""
+    mesh, lat, P = scene
+    d = vpffd.Deformer(mesh, lat, **_kw(backend))
+    P2 = edits.squash(lat.control_points, 0.6)
+    held = d.deform(P)
+    kept = held.vertices.copy()
+    view = d.deform(P2).vertices[:7]
+    kept_view = view.copy()
+    for _ in range(3):
+        d.deform(P2)
+        d.ffd(P2)
+    assert np.array_equal(held.vertices, kept) and np.array_equal(view, kept_view)
+    # Dropped arrays are reused (CPython's reference counts are exact).
+    a = d.deform(P2).vertices.ctypes.data
+    assert d.deform(P).vertices.ctypes.data == a
+    b = d.ffd(P2).ctypes.data
+    assert d.ffd(P).ctypes.data == b
+    assert np.array_equal(d.deform(P).vertices, kept)
+    md = vpffd.MultiresDeformer(vpffd.Multires(mesh, smoothing=5), lat, **_kw(backend))
+    first = md.deform(P)
+    ref_x, ref_n = first.vertices.copy(), first.normals.copy()
+    x = md.deform(P2).vertices.ctypes.data
+    r = md.deform(P)
+    assert r.vertices.ctypes.data == x
+    assert np.array_equal(r.vertices, ref_x) and np.array_equal(r.normals, ref_n)
+    assert np.array_equal(first.vertices, ref_x)  # held: untouched
+
+
+def test_vulkan_normals_without_out_normals_after_reuse(scene):
+    """A frame that reuses its vertex array and asks for normals without out_normals
+    still returns them (the device's read back into a buffer of its own)."""
+    mesh, lat, P = scene
+    d = vpffd.Deformer(mesh, lat, **_kw("vulkan"))
+    ref = d.deform(P, normals=True)
+    ref_n = ref.normals.copy()
+    del ref
+    r = d.deform(P, normals=True)  # its vertices go into the dropped frame's array
+    assert r.normals.shape == (mesh.n_vertices, 3) and np.array_equal(r.normals, ref_n)

@@ -148,7 +148,9 @@ void bind_vulkan(py::module_& m) {
                 // read back into the caller's arrays; the vertices into a buffer of ours
                 // only when asked for without `out`.
                 RowMatrixX3d X(into || !read_vertices ? 0 : nv, 3);
-                r = d.deform(P, o, into ? into : (read_vertices ? X.data() : nullptr), into_n);
+                if (normals && !into_n) N.resize(nv, 3);
+                r = d.deform(P, o, into ? into : (read_vertices ? X.data() : nullptr),
+                             into_n ? into_n : (normals ? N.data() : nullptr));
                 if (!into && read_vertices) r.vertices = std::move(X);
               } else {
                 r = d.deform(P, o, read_vertices, normals ? &N : nullptr);
