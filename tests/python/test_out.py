@@ -7,18 +7,7 @@ import pytest
 import vpffd
 from vpffd import edits, shapes
 
-from test_vulkan import DEVICE, SEL
-
-BACKENDS = ["serial", "openmp", "vulkan"]
-
-
-def _kw(backend):
-    if backend == "openmp" and not vpffd._core.has_openmp():
-        pytest.skip("no OpenMP in this build")
-    if backend == "vulkan" and DEVICE is None:
-        pytest.skip("no Vulkan backend in this build or no suitable device")
-    return dict(backend=backend, device=SEL) if backend == "vulkan" else dict(backend=backend)
-
+from test_threads import BACKENDS, backend_kwargs
 
 @pytest.fixture(scope="module")
 def scene():
@@ -34,7 +23,7 @@ def _fresh(n):
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_deformer_frames_into_out(scene, backend):
     mesh, lat, P = scene
-    d = vpffd.Deformer(mesh, lat, **_kw(backend))
+    d = vpffd.Deformer(mesh, lat, **backend_kwargs(backend))
     n = mesh.n_vertices
     out = _fresh(n)
     X = d.ffd(P, out=out)
@@ -67,7 +56,7 @@ def test_deform_points_into_out(scene):
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_multires_frames_into_out(scene, backend):
     mesh, lat, P = scene
-    md = vpffd.MultiresDeformer(vpffd.Multires(mesh, smoothing=5), lat, **_kw(backend))
+    md = vpffd.MultiresDeformer(vpffd.Multires(mesh, smoothing=5), lat, **backend_kwargs(backend))
     n = mesh.n_vertices
     for kw in (dict(), dict(preserve_volume=False), dict(volume="fine"), dict(normals="exact")):
         out, outn = _fresh(n), _fresh(n)
@@ -119,7 +108,7 @@ def test_frames_reuse_only_arrays_nobody_holds(scene, backend):
     """Without out=, a frame writes into the array of an earlier frame once nothing
     holds it (no page faults for a fresh output); held results and views never change."""
     mesh, lat, P = scene
-    d = vpffd.Deformer(mesh, lat, **_kw(backend))
+    d = vpffd.Deformer(mesh, lat, **backend_kwargs(backend))
     P2 = edits.squash(lat.control_points, 0.6)
     held = d.deform(P)
     kept = held.vertices.copy()
@@ -135,7 +124,7 @@ def test_frames_reuse_only_arrays_nobody_holds(scene, backend):
     b = d.ffd(P2).ctypes.data
     assert d.ffd(P).ctypes.data == b
     assert np.array_equal(d.deform(P).vertices, kept)
-    md = vpffd.MultiresDeformer(vpffd.Multires(mesh, smoothing=5), lat, **_kw(backend))
+    md = vpffd.MultiresDeformer(vpffd.Multires(mesh, smoothing=5), lat, **backend_kwargs(backend))
     first = md.deform(P)
     ref_x, ref_n = first.vertices.copy(), first.normals.copy()
     x = md.deform(P2).vertices.ctypes.data
@@ -149,7 +138,7 @@ def test_vulkan_normals_without_out_normals_after_reuse(scene):
     """A frame that reuses its vertex array and asks for normals without out_normals
     still returns them (the device's read back into a buffer of its own)."""
     mesh, lat, P = scene
-    d = vpffd.Deformer(mesh, lat, **_kw("vulkan"))
+    d = vpffd.Deformer(mesh, lat, **backend_kwargs("vulkan"))
     ref = d.deform(P, normals=True)
     ref_n = ref.normals.copy()
     del ref

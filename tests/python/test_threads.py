@@ -22,7 +22,8 @@ from test_vulkan import DEVICE, SEL
 BACKENDS = ["serial", "openmp", "vulkan"]
 
 
-def _backend(name):
+def backend_kwargs(name):
+    """Deformer keywords of a backend; skips the test where this build or machine has none."""
     if name == "openmp" and not vpffd._core.has_openmp():
         pytest.skip("no OpenMP in this build")
     if name == "vulkan" and DEVICE is None:
@@ -112,7 +113,7 @@ def _stress(frame_kinds, refs, move, threads=3, frames=12, min_moves=10, deadlin
 @pytest.mark.parametrize("move_kind", ["positions", "offsets"])
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_frames_see_one_rest_state(backend, move_kind):
-    kw = _backend(backend)
+    kw = backend_kwargs(backend)
     mesh, lat, P = _scene()
     d = vpffd.Deformer(mesh, lat, **kw)
     X = [mesh.vertices, mesh.vertices + OFFSET]
@@ -140,7 +141,7 @@ def test_frames_see_one_rest_state(backend, move_kind):
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_multires_frames_from_threads(backend):
-    kw = _backend(backend)
+    kw = backend_kwargs(backend)
     mesh = shapes.icosphere(4)
     mr = vpffd.Multires(mesh, smoothing=5)
     lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3, padding=0.1)

@@ -8,6 +8,7 @@ import pytest
 import vpffd
 from vpffd import edits, shapes
 
+from test_threads import backend_kwargs
 from test_vulkan import DEVICE, SEL
 
 SCALES = [1e-300, 1e-150, 1e-100, 1e-30, 1.0, 1e30, 1e100, 1e120, 1e300]
@@ -54,14 +55,15 @@ def test_backends_agree_on_every_scale(scale):
         assert kind == "refused", outcomes
 
 
-@pytest.mark.parametrize("backend", ["serial", "vulkan"])
-def test_targets_that_invert_are_refused_unless_allowed(backend):
-    if backend == "vulkan" and DEVICE is None:
-        pytest.skip("no Vulkan backend in this build or no suitable device")
+def _sphere_deformer(backend):
     mesh = shapes.icosphere(3)
     lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3, padding=0.1)
-    kw = dict(backend=backend, device=SEL) if backend == "vulkan" else dict(backend=backend)
-    d = vpffd.Deformer(mesh, lat, **kw)
+    return mesh, lat, vpffd.Deformer(mesh, lat, **backend_kwargs(backend))
+
+
+@pytest.mark.parametrize("backend", ["serial", "vulkan"])
+def test_targets_that_invert_are_refused_unless_allowed(backend):
+    mesh, lat, d = _sphere_deformer(backend)
     for t in (-1.0, 0.0):
         with pytest.raises(vpffd.InvalidInputError, match="other sign.*allow_inversion"):
             d.deform(target_volume=t)
@@ -69,7 +71,7 @@ def test_targets_that_invert_are_refused_unless_allowed(backend):
     assert r.volume == pytest.approx(-1.0, rel=1e-6)
     # An inward-facing mesh keeps its own (negative) volume by default.
     inward = vpffd.Mesh(mesh.vertices, mesh.faces[:, ::-1])
-    d = vpffd.Deformer(inward, lat, **kw)
+    d = vpffd.Deformer(inward, lat, **backend_kwargs(backend))
     r = d.deform(edits.squash(lat.control_points, 0.8))
     assert r.volume < 0 and r.volume == pytest.approx(d.rest_volume, rel=1e-6)
 
@@ -86,12 +88,7 @@ def test_parts_targets_are_checked_per_part():
 
 @pytest.mark.parametrize("backend", ["serial", "vulkan"])
 def test_targets_far_from_the_rest_volume_are_refused_alike(backend):
-    if backend == "vulkan" and DEVICE is None:
-        pytest.skip("no Vulkan backend in this build or no suitable device")
-    mesh = shapes.icosphere(3)
-    lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3, padding=0.1)
-    kw = dict(backend=backend, device=SEL) if backend == "vulkan" else dict(backend=backend)
-    d = vpffd.Deformer(mesh, lat, **kw)
+    mesh, lat, d = _sphere_deformer(backend)
     V0 = d.rest_volume
     for t in (1e300, V0 * 1e31, V0 * 1e-31, 1e-300):
         with pytest.raises(vpffd.InvalidInputError, match="factor of 1e30"):
