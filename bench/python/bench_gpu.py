@@ -99,6 +99,18 @@ def meshes(max_vertices):
         yield name, mesh
 
 
+def stage_medians(timings) -> dict:
+    """Medians of a frame's host stages (Deformer.last_timings): preparing and staging,
+    submission until the queue is idle, the read back into the caller's order, and the
+    Python wrapper around the core's call."""
+    med = statistics.median
+    return dict(stage_prepare_ms=med(t["host_prepare_ms"] for t in timings),
+                stage_submit_wait_ms=med(t["host_submit_wait_ms"] for t in timings),
+                stage_unpack_ms=med(t["host_unpack_ms"] for t in timings),
+                stage_python_ms=med(t["python_total_ms"] - t["host_total_ms"] for t in timings),
+                host_minus_device_ms=med(t["python_total_ms"] - t["gpu_total_ms"] for t in timings))
+
+
 def bench_mesh(name, mesh, args):
     lat = vpffd.Lattice.around(mesh, shape=args.shape, degree=args.degree)
     P = edit(lat)
@@ -152,6 +164,7 @@ def bench_mesh(name, mesh, args):
         gpu_xyz_ms=med(t["gpu_total_ms"] for t in gxyz),
         gpu_xyz_e2e_ms=med(e2e),
         gpu_xyz_kept_ms=med(kept),
+        **stage_medians(gxyz),
         gpu_xyz_normals_ms=med(t["gpu_total_ms"] for t in gn),
         gpu_xyz_normals_e2e_ms=med(gn_e2e),
         cpu_normals_ms=cpu_normals,
@@ -180,22 +193,30 @@ def bench_scaling(args, device, precision):
         setup_s = time.perf_counter() - t0
         first = gpu.deform(P)  # shader JIT, first touch
         run_for(lambda: gpu._vk.deform(Pflat, read_vertices=False), args.warmup)  # the GPU's clock up
-        gt, kept, e2e = [], [], []
+        gt, kept, e2e, e2e_out, staged = [], [], [], [], []
         for _ in range(r):
             t0 = time.perf_counter()
             gpu._vk.deform(Pflat, read_vertices=False)
             kept.append((time.perf_counter() - t0) * 1e3)
             gt.append(gpu.last_timings())
+        out = np.empty((mesh.n_vertices, 3))
         for _ in range(max(1, r // 2)):
             t0 = time.perf_counter()
             gpu.deform(P)
             e2e.append((time.perf_counter() - t0) * 1e3)
+            staged.append(gpu.last_timings())
+            t0 = time.perf_counter()
+            gpu.deform(P, out=out)
+            e2e_out.append((time.perf_counter() - t0) * 1e3)
         med = statistics.median
         row = dict(subdiv=s, vertices=mesh.n_vertices, faces=faces, setup_s=setup_s,
                    gpu_xyz_ms=med(t["gpu_total_ms"] for t in gt), gpu_ffd_ms=med(t["gpu_ffd_ms"] for t in gt),
                    gpu_step_ms=med(statistics.mean(t["gpu_steps_ms"]) for t in gt),
-                   gpu_xyz_kept_ms=med(kept), gpu_xyz_e2e_ms=med(e2e),
-                   volume_error_gpu=first.volume_error)
+                   gpu_xyz_kept_ms=med(kept), gpu_xyz_e2e_ms=med(e2e), gpu_xyz_e2e_out_ms=med(e2e_out),
+                   volume_error_gpu=first.volume_error, **stage_medians(staged))
+        # What the host adds to the device's frame, per vertex, frame by frame (the
+        # Python call end to end less its own device time; the target: 1.5 ns on lavapipe).
+        row["host_ns_per_vertex"] = row["host_minus_device_ms"] * 1e6 / mesh.n_vertices
         row["ns_per_face"] = row["gpu_xyz_ms"] * 1e6 / faces
         if args.cpu:
             cpu = gpu._d  # the CPU core of the same mesh (all OpenMP threads), no second embedding
@@ -211,7 +232,9 @@ def bench_scaling(args, device, precision):
         a, b = 0.0, big[0]["gpu_xyz_ms"] / big[0]["faces"]
     cols = [("subdiv", "{}"), ("vertices", "{}"), ("faces", "{}"), ("gpu_xyz_ms", "{:.3f}"),
             ("gpu_ffd_ms", "{:.3f}"), ("gpu_step_ms", "{:.3f}"), ("gpu_xyz_kept_ms", "{:.3f}"),
-            ("gpu_xyz_e2e_ms", "{:.3f}"), ("ns_per_face", "{:.3f}")] + \
+            ("gpu_xyz_e2e_ms", "{:.3f}"), ("gpu_xyz_e2e_out_ms", "{:.3f}"), ("stage_prepare_ms", "{:.3f}"),
+            ("stage_submit_wait_ms", "{:.3f}"), ("stage_unpack_ms", "{:.3f}"), ("stage_python_ms", "{:.3f}"),
+            ("host_ns_per_vertex", "{:.2f}"), ("ns_per_face", "{:.3f}")] + \
         ([("cpu_xyz_ms", "{:.2f}")] if args.cpu else []) + [("volume_error_gpu", "{:.1e}"), ("setup_s", "{:.1f}")]
     print(f"\nScaling (ms per xyz frame, medians of {r}) on {device['name']} ({device['type']}, {precision} sums), "
           f"{args.shape}^3 lattice of degree {args.degree}")

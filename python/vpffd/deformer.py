@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import os
 import threading
+import time
 import warnings
 import weakref
 
@@ -175,6 +176,7 @@ class Deformer:
         # animation asks for the same few every frame. The core only reads them.
         self._plain_options = {}
         self._spares = Spares()  # output arrays of earlier frames that nobody holds (_spare.py)
+        self._last_python_ms = 0.0  # the last deform call, end to end (last_timings)
         # DeformResult.rest_volume before it is summed (result.py): the current rest
         # mesh's source, and every source handed out to a result and not read yet.
         self._rest_source = RestVolumeSource(self)
@@ -545,6 +547,7 @@ class Deformer:
         FoldError
             ``on_fold="raise"`` and the corrected lattice folds.
         """
+        t_start = time.perf_counter()
         if not isinstance(preserve_volume, (bool, np.bool_)):
             raise TypeError(f"preserve_volume: expected a bool, got {type(preserve_volume).__name__}")
         if not isinstance(axes, str):
@@ -630,7 +633,7 @@ class Deformer:
             # Summed when the result's rest_volume is first read, if ever (result.py).
             rest = self._rest_source
             self._rest_sources_out.add(rest)
-        return DeformResult(
+        result = DeformResult(
             vertices=r["vertices"],
             control_points=r["control_points"].reshape(*self.lattice.shape, 3),
             offsets=r["offsets"].reshape(*self.lattice.shape, 3),
@@ -641,6 +644,8 @@ class Deformer:
             faces=self._mesh.faces, normals=self._frame_normals(r, normals, out_normals),
             part_volumes=r.get("part_volumes"),
             part_volumes_before=r.get("part_volumes_before"), part_target_volumes=r.get("part_targets"))
+        self._last_python_ms = 1e3 * (time.perf_counter() - t_start)
+        return result
 
     def _frame_options(self, preserve_volume, axes, w, fx, cons, tv, part_targets, method, allow_open, rounds,
                        allow_inversion=False):
@@ -701,13 +706,23 @@ class Deformer:
 
     def last_timings(self):
         """Vulkan only: times of the last frame in ms (``gpu_total_ms`` from timestamp
-        queries, ``gpu_ffd_ms``, ``gpu_steps_ms`` per axis, ``host_total_ms`` end to end;
-        ``gpu_move_ms``: the device embedding, cell sort and tiles of a
+        queries, ``gpu_ffd_ms``, ``gpu_steps_ms`` per axis, ``host_total_ms`` the core's
+        call end to end; ``gpu_move_ms``: the device embedding, cell sort and tiles of a
         ``set_rest_vertices`` that ran first in this frame's submission, not part of
-        ``gpu_total_ms``, 0.0 when no move waited for the frame)."""
+        ``gpu_total_ms``, 0.0 when no move waited for the frame).
+
+        The host's stages: ``host_prepare_ms`` (checks, plan, staging the control points
+        and frame data in mapped memory), ``host_submit_wait_ms`` (submission until the
+        queue is idle: the device's work and the driver's around it),
+        ``host_unpack_ms`` (the read back into the caller's vertex order in float64),
+        and ``python_total_ms``, the whole ``deform`` call (the Python checks, the
+        result's arrays and the fold check on top of ``host_total_ms``). With frames on
+        several threads these are of the last frame to finish."""
         if self._vk is None:
             raise InvalidInputError("last_timings: only the 'vulkan' backend records frame timings")
-        return self._vk.last_timings()
+        t = self._vk.last_timings()
+        t["python_total_ms"] = self._last_python_ms
+        return t
 
     def __repr__(self) -> str:
         return f"Deformer({self.mesh!r}, {self.lattice!r}, backend={self.backend!r})"

@@ -34,6 +34,9 @@ py::dict timings_to_python(const vulkan::FrameTimings& t) {
   o["gpu_final_ms"] = t.gpu_final;
   o["gpu_move_ms"] = t.gpu_move;
   o["host_total_ms"] = t.host_total;
+  o["host_prepare_ms"] = t.host_prepare;
+  o["host_submit_wait_ms"] = t.host_submit_wait;
+  o["host_unpack_ms"] = t.host_unpack;
   o["has_timestamps"] = t.has_timestamps;
   return o;
 }

@@ -221,12 +221,17 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   cbs[n_cbs++] = rec.cb;
   if (read_vertices) cbs[n_cbs++] = m.readback();
   if (tail) cbs[n_cbs++] = tail->record(shape.mode != Shape::Plain);
+  const double prepared = ms_since(t_start);
+  const auto t_submit = std::chrono::steady_clock::now();
   m.submit_and_wait(cbs, n_cbs);
+  const double waited = ms_since(t_submit);
   m.embed_pending = false;
   if (new_invw && shape.mode == Shape::DeviceSteps) m.invw_uploaded = inv_weight;
   if (shape.normals) m.normals_ready = true;
 
   FrameTimings tm;
+  tm.host_prepare = prepared;
+  tm.host_submit_wait = waited;
   const std::uint32_t ns = rec.n_steps;
   if (m.dev->timestamps) {
     std::uint64_t ts[kQueries] = {};
@@ -331,12 +336,14 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   if (has_parts && opt.preserve_volume) res.part_targets = pl.part_targets;
   res.constraint_error = constraint_error(rows, expand_points(cpu.ties(), res.control_points), opt.constraints);
   // Under the frame's lock: another thread's frame would overwrite rb_X.
+  const auto t_unpack = std::chrono::steady_clock::now();
   if (read_vertices && out_vertices)
     m.unpack(m.rb_X, m.scale, m.origin, out_vertices);
   else if (read_vertices)
     res.vertices = m.unpack_vertices();
   if (normals) *normals = m.unpack_normals();
   if (out_normals) m.unpack(m.rb_N, 1.0, Vector3d::Zero(), out_normals);
+  tm.host_unpack = ms_since(t_unpack);
   if (tail) tail->finish();
   tm.host_total = ms_since(t_start);
   m.timings = std::move(tm);

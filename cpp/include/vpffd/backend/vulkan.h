@@ -113,6 +113,12 @@ struct FrameTimings {
                                   ///< (embedding, cell sort, tiles; set_rest_vertices), not in gpu_total;
                                   ///< 0 when no move waited for the frame
   double host_total = 0;          ///< deform() call, end to end (upload, submit, wait, read back)
+  /// The host's stages of host_total: the options' checks, the plan and the staging of
+  /// the control points and frame data in mapped memory (and recording, when the
+  /// frame's shape is new); the submission until the queue is idle again (the device's
+  /// work, gpu_total, and the driver's around it); the read back of the vertices (and
+  /// normals) from the mapped buffer into the caller's order in float64.
+  double host_prepare = 0, host_submit_wait = 0, host_unpack = 0;
   bool has_timestamps = false;    ///< false when the queue has no timestamp support
 };
 
