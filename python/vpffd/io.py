@@ -1,4 +1,9 @@
-"""Mesh files through OpenMesh's readers and writers (C++, Debian's libopenmesh-dev).
+"""Mesh files (C++: vpffd's own readers for OBJ, OFF, PLY and OM, OpenMesh's for STL
+and its writers for every format, Debian's libopenmesh-dev).
+
+Writes never lose a file: the new one is written to a temporary file in the same
+folder, every write checked, flushed to the disk and only then renamed over the old
+one; a write that fails raises and leaves the old file as it was.
 
 Formats: ``.obj``, ``.off``, ``.ply`` (ASCII and binary), ``.stl`` (ASCII and
 binary), ``.om``; any of them gzip-compressed as ``name.ply.gz`` etc. (reading).
@@ -133,9 +138,15 @@ def save_mesh(path, mesh, normals=None, binary=None, precision: int = 17) -> Non
     Raises
     ------
     vpffd.MeshIOError
-        the folder does not exist or is not writable, unknown extension, ...
+        the folder does not exist or is not writable, unknown extension, a target
+        that cannot be replaced safely (a FIFO, a device), a full disk or the
+        process's file-size limit, ...: the message names the file and the
+        operating system's error; an existing file is left byte for byte as it was
+        and no temporary file remains.
     vpffd.InvalidInputError
-        bad normals (shape, NaN), ``binary=True`` for OBJ.
+        bad normals (shape, NaN), ``binary=True`` for OBJ, non-finite coordinates
+        (naming the vertex), coordinates beyond float32's range (3.4e38) for the
+        formats that store float32 (all but ``.om``).
     """
     p = _path(path, "save_mesh")
     m = Mesh.from_any(mesh)
