@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import threading
+import time
 import warnings
 
 from . import _arrays, _core
@@ -72,12 +73,29 @@ def _relative(v, ref) -> float:
 class Multires:
     """Two-scale decomposition of a triangle mesh: base surface + normal displacements.
 
-    The base S is the mesh faired by implicit cotangent-Laplacian smoothing with the
-    same connectivity; every base triangle is its own linear patch (paper §6). Each
-    fine vertex is stored as p = s0 + u S_u + v S_v + d N_S in the affine frame of
-    the triangle of its one-ring on S that needs the least extrapolation; that
-    representation is exact, so the identity and rigid motions reproduce the mesh
-    to rounding.
+    The base S is a smooth triangle mesh with the same connectivity (paper §6) and a
+    continuous normal field: on each base triangle, S is the linear patch and N_S the
+    normalised interpolation of the base's vertex normals (Phong normals). Every
+    fine vertex p gets an *exact* foot point t on S, p - S(t) parallel to N_S(t)
+    (eq. 1), found by Newton steps on the triangles of its one-ring and a walk across
+    neighbouring triangles; it is stored as p = S(t) + d N_S(t). Neighbouring
+    vertices thus get neighbouring foot points and displacement directions, and a
+    deformation moves them alike: a face does not turn over because its corners
+    were measured from different, discontinuous frames.
+
+    The base starts as the mesh faired by implicit cotangent-Laplacian smoothing and
+    is then *fitted* to the mesh (§4.1): ``fit_rounds`` rounds of least squares
+    (the foot points' distance to their vertices, plus ``fairness`` times a
+    thin-plate energy of the base), each followed by new foot points. Vertices
+    still without an exact foot point pull harder in the next round. Fitting
+    shortens the displacements about tenfold on scans; with long displacements the
+    offset surface folds in concave, thin or noisy parts under large edits.
+
+    A vertex for which no exact foot point exists (the normals of the base cross
+    before they reach it) is counted in ``n_unresolved`` and listed in
+    ``unresolved``: it keeps the nearest foot point the search found, with the
+    tangential miss in ``residuals``. Its position is still rebuilt exactly by the
+    identity and rigid motions.
 
     Parameters
     ----------
@@ -89,6 +107,17 @@ class Multires:
         taken in ceil(smoothing) implicit steps: an integer is a number of unit
         steps (default 10). More smoothing gives a smoother base, larger
         displacements and (paper §4.1) larger approximate-normal errors.
+    fit_rounds : int in 0..100
+        rounds of fitting the base to the mesh (default 4; 0: the faired base).
+    fairness : float > 0
+        weight of the base's thin-plate energy against the distances in the fit,
+        relative (independent of units and mesh size; default 100). Smaller: the base
+        follows the mesh more closely (shorter displacements, less smooth base).
+    foot_points : {"exact", "affine"}
+        "exact" (default) as above; "affine" stores every vertex in the affine frame
+        of the one-ring triangle that needs the least extrapolation, with the
+        triangle's own normal (discontinuous from triangle to triangle; kept for
+        comparison).
     threads : int, optional
 
     Attributes
@@ -98,28 +127,53 @@ class Multires:
         the base surface S (same faces).
     displacements : (V,) float64
         signed normal displacement d_i, world units.
+    exact : (V,) bool
+        True where the foot point is exact: tangential residual at most 1e-9 of
+        the bounding-box diagonal.
     residuals : (V,) float64
-        how far each vertex's affine foot point S(u, v) lies outside its base
-        triangle, world units (0 where the exact foot point lies in the triangle).
+        world units: where exact, the tangential residual of the foot point
+        (rounding, ~1e-16 of the diagonal); elsewhere how far p - S(t) misses the
+        normal N_S(t) (or, with ``foot_points="affine"``, how far the affine foot
+        point lies outside its triangle).
+    n_unresolved : int
+        vertices without an exact foot point; ``unresolved`` their indices.
     extrapolated_fraction : float
-        fraction of the vertices with a positive residual.
+        n_unresolved / V.
+    rms_displacement : tuple of float
+        RMS of |d| (world units) of the faired base, then after each fit round.
+    seconds : float
+        time the decomposition took.
     bytes_per_vertex : int
-        per-vertex data held (228 bytes; ``frame_bytes_per_vertex``, 128, is what a
+        per-vertex data held (229 bytes; ``frame_bytes_per_vertex``, 128, is what a
         frame reads).
     """
 
     bytes_per_vertex = _core.Multires.bytes_per_vertex
     frame_bytes_per_vertex = _core.Multires.frame_bytes_per_vertex
 
-    def __init__(self, mesh, smoothing=10, threads=None):
+    def __init__(self, mesh, smoothing=10, fit_rounds=4, fairness=100.0, foot_points="exact", threads=None):
         self.mesh = Mesh.from_any(mesh)
         self.smoothing = _arrays.positive(smoothing, "smoothing", "Multires")
-        self._m = _core.Multires(self.mesh.vertices, self.mesh.faces, self.smoothing, _threads_arg(threads))
+        if isinstance(fit_rounds, bool) or not isinstance(fit_rounds, (int, np.integer)) or not 0 <= fit_rounds <= 100:
+            raise InvalidInputError(f"Multires: fit_rounds must be an integer in 0..100, got {fit_rounds!r}")
+        self.fit_rounds = int(fit_rounds)
+        self.fairness = _arrays.positive(fairness, "fairness", "Multires")
+        if foot_points not in ("exact", "affine"):
+            raise InvalidInputError(f"Multires: foot_points must be 'exact' or 'affine', got {foot_points!r}")
+        self.foot_point_mode = foot_points
+        t0 = time.perf_counter()
+        self._m = _core.Multires(self.mesh.vertices, self.mesh.faces, self.smoothing, _threads_arg(threads),
+                                 foot_points == "exact", self.fit_rounds, self.fairness)
+        self.seconds = time.perf_counter() - t0
         self.base = Mesh(self._m.base, self.mesh.faces)
         self.displacements = _read_only(self._m.displacements)
         self.residuals = _read_only(self._m.residuals)
+        self.exact = _read_only(self._m.exact)
+        self.unresolved = _read_only(np.flatnonzero(~self.exact))
+        self.n_unresolved = int(self.unresolved.size)
         self.rest_normals = _read_only(self._m.rest_normals)
         self.extrapolated_fraction = float(self._m.extrapolated_fraction)
+        self.rms_displacement = tuple(float(x) for x in self._m.rms_displacement)
         # Reference volumes of every frame's report, measured once (NaN when open).
         closed = self.mesh.is_closed
         self._rest_volumes = (_volume(self.mesh.vertices, self.mesh.faces, closed),
@@ -140,11 +194,18 @@ class Multires:
                 "foot_faces": m.foot_faces, "foot_uv": m.foot_uv}
 
     def __repr__(self) -> str:
-        r = self.residuals
-        return (f"Multires({self.n_vertices} vertices, smoothing={self.smoothing:g}, "
-                f"|d| max {np.abs(self.displacements).max():.3g} mean {np.abs(self.displacements).mean():.3g}, "
-                f"residual max {r.max():.3g} mean {r.mean():.3g}, "
-                f"extrapolated {100 * self.extrapolated_fraction:.1f}%, {self.bytes_per_vertex} B/vertex)")
+        d = np.abs(self.displacements)
+        fit = (f"fitted {self.fit_rounds}x (fairness {self.fairness:g}): rms |d| "
+               f"{self.rms_displacement[0]:.3g} -> {self.rms_displacement[-1]:.3g}" if self.fit_rounds else "not fitted")
+        if self.n_unresolved:
+            first = ", ".join(str(i) for i in self.unresolved[:5]) + (", ..." if self.n_unresolved > 5 else "")
+            feet = (f"{self.foot_point_mode} foot points: {self.n_unresolved} unresolved (residual max "
+                    f"{self.residuals[self.unresolved].max():.3g}; vertices {first})")
+        else:
+            feet = f"{self.foot_point_mode} foot points: all resolved"
+        return (f"Multires({self.n_vertices} vertices, smoothing={self.smoothing:g}, {fit}, "
+                f"|d| max {d.max():.3g} mean {d.mean():.3g}, {feet}, "
+                f"{self.bytes_per_vertex} B/vertex, {self.seconds:.2f} s)")
 
 
 @dataclass

@@ -46,11 +46,14 @@ auto frame_method(void (MultiresFFD::*method)(const Eigen::Ref<const RowMatrixX3
 
 void bind_multires(py::module_& m) {
   py::class_<Multires, std::shared_ptr<Multires>>(m, "Multires", "Two-scale decomposition (base + displacements).")
-      .def(py::init([](RefV V, RefF F, double smoothing, int threads) {
+      .def(py::init([](RefV V, RefF F, double smoothing, int threads, bool exact, int fit_rounds, double fairness) {
              py::gil_scoped_release release;
-             return std::make_shared<Multires>(decompose(V, F, smoothing, threads));
+             return std::make_shared<Multires>(decompose(V, F, smoothing, threads, exact, fit_rounds, fairness));
            }),
-           py::arg("vertices"), py::arg("faces"), py::arg("smoothing"), py::arg("threads") = 0)
+           py::arg("vertices"), py::arg("faces"), py::arg("smoothing"), py::arg("threads") = 0,
+           py::arg("exact_foot_points") = true, py::arg("fit_rounds") = 4, py::arg("fairness") = 100.0)
+      .def_readonly("rms_displacement", &Multires::rms_displacement)
+      .def_readonly("fairness", &Multires::fairness)
       .def_readonly("base", &Multires::base)
       .def_readonly("rest_normals", &Multires::rest_normals)
       .def_property_readonly("displacements", [](const Multires& r) { return vec(r.d); })
@@ -67,6 +70,13 @@ void bind_multires(py::module_& m) {
                                return soa(uv, 2);
                              })
       .def_property_readonly("extrapolated_fraction", &Multires::extrapolated_fraction)
+      .def_property_readonly("exact",
+                             [](const Multires& r) {
+                               py::array_t<bool> a(static_cast<py::ssize_t>(r.exact.size()));
+                               for (size_t i = 0; i < r.exact.size(); ++i) a.mutable_data()[i] = r.exact[i] != 0;
+                               return a;
+                             })
+      .def_property_readonly("unresolved_count", &Multires::unresolved_count)
       .def_property_readonly_static("bytes_per_vertex", [](py::object) { return Multires::bytes_per_vertex; })
       .def_property_readonly_static("frame_bytes_per_vertex",
                                     [](py::object) { return Multires::frame_bytes_per_vertex; });

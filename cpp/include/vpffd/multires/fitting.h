@@ -5,14 +5,16 @@
 /// parameters, S(t_i) = sum_j Phi_ij C_j, so shortening the displacements is a
 /// linear least-squares problem with a fairness term,
 ///
-///   minimise  sum_i |(Phi C)_i - P_i|^2  +  lambda' |C|_K^2  +  mu |C - C0|^2,
+///   minimise  sum_i w_i |(Phi C)_i - P_i|^2  +  lambda' |C|_K^2  +  mu |C - C0|^2,
 ///
-/// solved from the normal equations (Phi^T Phi + lambda' K + mu I) C = Phi^T P + mu C0.
+/// solved from the normal equations (Phi^T W Phi + lambda' K + mu I) C = Phi^T W P + mu C0.
+/// The row weights w_i (default 1) let a caller pull the surface harder toward the
+/// points it has not reached (vertices with no exact foot point).
 /// Both the smooth-mesh base (Phi: the barycentric coordinates of each foot point in
 /// its base triangle) and the subdivision base (Phi: limit stencils) use it,
 /// alternating with a foot-point update that changes Phi.
 ///
-/// Units: lambda is relative. lambda' = lambda * trace(Phi^T Phi) / trace(K), so the
+/// Units: lambda is relative. lambda' = lambda * trace(Phi^T W Phi) / trace(K), so the
 /// balance between closeness and fairness does not depend on the mesh size, the
 /// number of control points or the units of K. The proximal term mu |C - C0|^2
 /// (mu = 1e-9 of the mean diagonal of Phi^T Phi) only makes the system definite
@@ -59,13 +61,14 @@ inline double rms_rows(const RowSparse& Phi, const RowMatrixX3d& C, const Eigen:
 /// @param lambda  relative fairness weight, >= 0 and finite
 /// @param C0   N x 3 current control points: the warm start and the proximal anchor
 /// @param threads  for the CG products (the result does not depend on it)
+/// @param weights  #P positive finite row weights, or nullptr for all 1
 /// @returns N x 3 fitted control points
 /// @throws InvalidInputError for mismatched shapes, non-finite input or a negative
 ///         lambda; SolverError when the system cannot be factorised
 inline RowMatrixX3d fit_control_points(const RowSparse& Phi, const Eigen::Ref<const RowMatrixX3d>& P,
                                        const Eigen::SparseMatrix<double>& K, double lambda,
                                        const Eigen::Ref<const RowMatrixX3d>& C0, int threads = 0,
-                                       FitReport* report = nullptr) {
+                                       FitReport* report = nullptr, const VectorXd* weights = nullptr) {
   const Index n = Phi.cols();
   VPFFD_CHECK(Phi.rows() == P.rows(), "fit_control_points: ", Phi.rows(), " basis rows for ", P.rows(), " points");
   VPFFD_CHECK(K.rows() == n && K.cols() == n && C0.rows() == n, "fit_control_points: ", n,
@@ -73,7 +76,11 @@ inline RowMatrixX3d fit_control_points(const RowSparse& Phi, const Eigen::Ref<co
   VPFFD_CHECK(std::isfinite(lambda) && lambda >= 0, "fit_control_points: lambda must be >= 0, got ", lambda);
   VPFFD_CHECK(P.allFinite() && C0.allFinite(), "fit_control_points: the points contain NaN or infinity");
   VPFFD_CHECK(n > 0, "fit_control_points: no control points");
-  RowSparse A = RowSparse(Phi.transpose()) * Phi;
+  VPFFD_CHECK(!weights || (weights->size() == P.rows() && weights->allFinite() && weights->minCoeff() > 0),
+              "fit_control_points: expected ", P.rows(), " positive finite weights");
+  RowSparse PhiW = Phi;  // W Phi
+  if (weights) PhiW = weights->asDiagonal() * Phi;
+  RowSparse A = RowSparse(PhiW.transpose()) * Phi;
   const double trace_phi = A.diagonal().sum();
   const double trace_k = K.diagonal().sum();
   VPFFD_CHECK(trace_phi > 0, "fit_control_points: no point depends on any control point");
@@ -83,14 +90,15 @@ inline RowMatrixX3d fit_control_points(const RowSparse& Phi, const Eigen::Ref<co
   I.setIdentity();
   A += I * mu;
   A.makeCompressed();
-  const RowMatrixX3d B = RowMatrixX3d(Phi.transpose() * P) + mu * C0;
+  const RowMatrixX3d B = RowMatrixX3d(PhiW.transpose() * P) + mu * C0;
 
   FitReport rep;
   rep.rms_before = detail::rms_rows(Phi, C0, P);
   RowMatrixX3d C = C0;
-  // The tolerance is relative to |B|: 1e-12 leaves an error of cond(A) * 1e-12 of
-  // the control points, far below any displacement the fit changes.
-  const PcgReport cg = pcg_solve3(A, B, C, 1e-12, 2000, threads);
+  // The tolerance is relative to |B|: 1e-10 leaves an error of cond(A) * 1e-10 of
+  // the control points' size (cond ~ 1 + 16 lambda for the umbrella form), far below
+  // the displacements the fit shortens (1e-4 of the size on scans).
+  const PcgReport cg = pcg_solve3(A, B, C, 1e-10, 2000, threads);
   rep.iterations = cg.iterations;
   if (!cg.converged) {
     const Eigen::SparseMatrix<double> Ac = A;
@@ -104,6 +112,39 @@ inline RowMatrixX3d fit_control_points(const RowSparse& Phi, const Eigen::Ref<co
   rep.rms_after = detail::rms_rows(Phi, C, P);
   if (report) *report = rep;
   return C;
+}
+
+/// Thin-plate fairness form K = L^T L of the umbrella (uniform) Laplacian of a
+/// triangle mesh, L = I - (mean of the edge neighbours). It penalises the bending of
+/// the control net, not its size, so a fitted base keeps thin parts thin instead of
+/// shrinking them, and its conditioning depends on the vertex degrees, not on the
+/// triangle shapes (a scan's slivers make cotangent weights arbitrarily large).
+/// Vertices in no edge get a zero row.
+/// @param F  #F x 3 triangles over n vertices
+inline Eigen::SparseMatrix<double> umbrella_fairness(const Eigen::Ref<const RowMatrixX3i>& F, Index n) {
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(static_cast<size_t>(F.rows()) * 6);
+  for (Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      // Each undirected edge appears in two faces of a closed mesh: weight 1 per
+      // face side, so the neighbour weights are counted consistently and normalised
+      // by the row sum below.
+      t.emplace_back(F(f, c), F(f, (c + 1) % 3), 1.0);
+      t.emplace_back(F(f, (c + 1) % 3), F(f, c), 1.0);
+    }
+  Eigen::SparseMatrix<double, Eigen::RowMajor> A(n, n);
+  A.setFromTriplets(t.begin(), t.end());
+  for (Index i = 0; i < n; ++i) {
+    double sum = 0;
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(A, i); it; ++it) sum += it.value();
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(A, i); it; ++it) it.valueRef() /= -sum;
+  }
+  Eigen::SparseMatrix<double> I(n, n);
+  I.setIdentity();
+  for (Index i = 0; i < n; ++i)
+    if (A.row(i).nonZeros() == 0) I.coeffRef(i, i) = 0;
+  const Eigen::SparseMatrix<double> L = Eigen::SparseMatrix<double>(A) + I;
+  return Eigen::SparseMatrix<double>(L.transpose() * L);
 }
 
 /// Tangential residual of a foot point: the part of p - S orthogonal to the unit
