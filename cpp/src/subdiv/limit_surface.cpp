@@ -1,0 +1,129 @@
+// The limit surface through Bfr: Far builds the topology, a RefinerSurfaceFactory
+// makes one Bfr::Surface per control face (with the approximation level raised around
+// irregular features), and we keep each surface with its patch points.
+
+#include "limit_surface.h"
+
+#include <opensubdiv/bfr/refinerSurfaceFactory.h>
+#include <opensubdiv/bfr/surface.h>
+#include <opensubdiv/far/topologyDescriptor.h>
+#include <opensubdiv/far/topologyRefinerFactory.h>
+
+#include "vpffd/core/check.h"
+
+namespace vpffd::subdiv {
+
+namespace osd = OpenSubdiv;
+
+struct LimitSurface::Impl {
+  std::unique_ptr<osd::Far::TopologyRefiner> refiner;
+  std::vector<osd::Bfr::Surface<double>> surfaces;  // one per control face
+  std::vector<std::vector<double>> patch_points;     // one array per face, 3 per point
+  // Normalised sub-face (Ptex) coordinates -> the face's (u, v): uv = origin + scale * st.
+  std::vector<double> origin_u, origin_v, scale;
+};
+
+LimitSurface::LimitSurface(SubdivScheme scheme, Index n_control, const std::vector<std::int32_t>& face_sizes,
+                           const std::vector<std::int32_t>& face_vertices, int approx_level)
+    : impl_(std::make_unique<Impl>()) {
+  using Factory = osd::Far::TopologyRefinerFactory<osd::Far::TopologyDescriptor>;
+  osd::Far::TopologyDescriptor desc;
+  desc.numVertices = int(n_control);
+  desc.numFaces = int(face_sizes.size());
+  desc.numVertsPerFace = face_sizes.data();
+  desc.vertIndicesPerFace = face_vertices.data();
+  osd::Sdc::Options sdc;
+  // Boundaries (an open control mesh) interpolate their edges and corners: the
+  // limit surface ends at the control mesh's boundary curve.
+  sdc.SetVtxBoundaryInterpolation(osd::Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER);
+  const osd::Sdc::SchemeType type = scheme == SubdivScheme::Loop ? osd::Sdc::SCHEME_LOOP : osd::Sdc::SCHEME_CATMARK;
+  impl_->refiner.reset(Factory::Create(desc, Factory::Options(type, sdc)));
+  VPFFD_CHECK(impl_->refiner != nullptr, "SubdivisionMultires: OpenSubdiv refused the control mesh's topology");
+
+  osd::Bfr::SurfaceFactory::Options opts;
+  opts.SetApproxLevelSmooth(approx_level).SetApproxLevelSharp(approx_level);
+  // The cache shares irregular patches between faces; the factory is used here,
+  // on one thread, only.
+  osd::Bfr::RefinerSurfaceFactory<> factory(*impl_->refiner, opts);
+  const int nf = desc.numFaces;
+  impl_->surfaces.resize(nf);
+  impl_->patch_points.resize(nf);
+  triangular_ = scheme == SubdivScheme::Loop;
+  for (int f = 0; f < nf; ++f) {
+    VPFFD_CHECK(factory.InitVertexSurface(f, &impl_->surfaces[f]), "SubdivisionMultires: control face ", f,
+                " has no limit surface (OpenSubdiv)");
+    const osd::Bfr::Parameterization param = impl_->surfaces[f].GetParameterization();
+    const int subs = param.HasSubFaces() ? param.GetFaceSize() : 1;
+    for (int s = 0; s < subs; ++s) {
+      patch_face_.push_back(f);
+      patch_sub_.push_back(param.HasSubFaces() ? s : -1);
+    }
+  }
+  // One affine map per patch from normalised sub-face coordinates to the face's.
+  const int np = int(patch_face_.size());
+  impl_->origin_u.assign(np, 0);
+  impl_->origin_v.assign(np, 0);
+  impl_->scale.assign(np, 1);
+  for (int k = 0; k < np; ++k) {
+    if (patch_sub_[k] < 0) continue;
+    const osd::Bfr::Parameterization param = impl_->surfaces[patch_face_[k]].GetParameterization();
+    const double st0[2] = {0, 0}, st1[2] = {1, 0};
+    double uv0[2], uv1[2];
+    param.ConvertNormalizedSubFaceToCoord(patch_sub_[k], st0, uv0);
+    param.ConvertNormalizedSubFaceToCoord(patch_sub_[k], st1, uv1);
+    impl_->origin_u[k] = uv0[0];
+    impl_->origin_v[k] = uv0[1];
+    impl_->scale[k] = uv1[0] - uv0[0];
+  }
+}
+
+LimitSurface::~LimitSurface() = default;
+
+void LimitSurface::set_points(const RowMatrixX3d& C) {
+  VPFFD_CHECK(C.rows() == impl_->refiner->GetLevel(0).GetNumVertices(), "LimitSurface: expected ",
+              impl_->refiner->GetLevel(0).GetNumVertices(), " control points, got ", C.rows());
+  const osd::Bfr::Surface<double>::PointDescriptor desc(3);
+  for (size_t f = 0; f < impl_->surfaces.size(); ++f) {
+    const auto& s = impl_->surfaces[f];
+    impl_->patch_points[f].resize(size_t(s.GetNumPatchPoints()) * 3);
+    s.PreparePatchPoints(C.data(), desc, impl_->patch_points[f].data(), desc);
+  }
+}
+
+LimitPoint LimitSurface::evaluate(int patch, double u, double v) const {
+  const int f = patch_face_[patch];
+  const double k = impl_->scale[patch];
+  const double uv[2] = {impl_->origin_u[patch] + k * u, impl_->origin_v[patch] + k * v};
+  LimitPoint r;
+  impl_->surfaces[f].Evaluate(uv, impl_->patch_points[f].data(), osd::Bfr::Surface<double>::PointDescriptor(3),
+                              r.p.data(), r.du.data(), r.dv.data(), r.duu.data(), r.duv.data(), r.dvv.data());
+  // Chain rule of uv = origin + k st.
+  r.du *= k;
+  r.dv *= k;
+  r.duu *= k * k;
+  r.duv *= k * k;
+  r.dvv *= k * k;
+  return r;
+}
+
+void LimitSurface::stencil(int patch, double u, double v, std::vector<std::int32_t>& idx, std::vector<double>& w,
+                           std::vector<double>& wu, std::vector<double>& wv) const {
+  const int f = patch_face_[patch];
+  const auto& s = impl_->surfaces[f];
+  const double k = impl_->scale[patch];
+  const double uv[2] = {impl_->origin_u[patch] + k * u, impl_->origin_v[patch] + k * v};
+  const int n = s.GetNumControlPoints();
+  const size_t at = idx.size();
+  idx.resize(at + n);
+  w.resize(at + n);
+  wu.resize(at + n);
+  wv.resize(at + n);
+  s.GetControlPointIndices(idx.data() + at);
+  s.EvaluateStencil(uv, w.data() + at, wu.data() + at, wv.data() + at);
+  for (int j = 0; j < n; ++j) {
+    wu[at + j] *= k;
+    wv[at + j] *= k;
+  }
+}
+
+}  // namespace vpffd::subdiv
