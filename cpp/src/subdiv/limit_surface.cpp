@@ -90,19 +90,43 @@ void LimitSurface::set_points(const RowMatrixX3d& C) {
   }
 }
 
+namespace {
+
+// First derivatives only, in the face's (u, v).
+void evaluate_first(const osd::Bfr::Surface<double>& s, const std::vector<double>& pp, const double uv[2], double* P,
+                    double* du, double* dv) {
+  s.Evaluate(uv, pp.data(), osd::Bfr::Surface<double>::PointDescriptor(3), P, du, dv);
+}
+
+}  // namespace
+
 LimitPoint LimitSurface::evaluate(int patch, double u, double v) const {
   const int f = patch_face_[patch];
   const double k = impl_->scale[patch];
+  const auto& s = impl_->surfaces[f];
+  const auto& pp = impl_->patch_points[f];
   const double uv[2] = {impl_->origin_u[patch] + k * u, impl_->origin_v[patch] + k * v};
   LimitPoint r;
-  impl_->surfaces[f].Evaluate(uv, impl_->patch_points[f].data(), osd::Bfr::Surface<double>::PointDescriptor(3),
-                              r.p.data(), r.du.data(), r.dv.data(), r.duu.data(), r.duv.data(), r.dvv.data());
-  // Chain rule of uv = origin + k st.
+  evaluate_first(s, pp, uv, r.p.data(), r.du.data(), r.dv.data());
+  // Second derivatives by forward differences of the first, toward the inside of
+  // the domain: Bfr's own second derivatives on irregular Loop patches are off by
+  // ~100 % (checked against differences of its first derivatives), which stalls
+  // Newton. h = 1e-7 leaves a relative error of ~1e-7 (truncation) + 1e-9
+  // (rounding): Newton then converges at that rate per step.
+  constexpr double h = 1e-7;
+  const double su = (triangular_ ? u + v + h <= 1 : u + h <= 1) ? 1.0 : -1.0;
+  const double sv = (triangular_ ? u + v + h <= 1 : v + h <= 1) ? 1.0 : -1.0;
+  Vector3d p1, du1, dv1, p2, du2, dv2;
+  const double uv1[2] = {uv[0] + su * h * k, uv[1]}, uv2[2] = {uv[0], uv[1] + sv * h * k};
+  evaluate_first(s, pp, uv1, p1.data(), du1.data(), dv1.data());
+  evaluate_first(s, pp, uv2, p2.data(), du2.data(), dv2.data());
+  // Chain rule of uv = origin + k st: first derivatives scale by k; the differences
+  // below are per unit of st already (a step of h in st), so they scale by k once.
   r.du *= k;
   r.dv *= k;
-  r.duu *= k * k;
-  r.duv *= k * k;
-  r.dvv *= k * k;
+  r.duu = (du1 - r.du / k) * (su * k / h);
+  r.duv = 0.5 * ((dv1 - r.dv / k) * (su * k / h) + (du2 - r.du / k) * (sv * k / h));
+  r.dvv = (dv2 - r.dv / k) * (sv * k / h);
   return r;
 }
 
