@@ -239,6 +239,27 @@ std::vector<FootParam> find_foot_points(const LimitSurface& surface, const RowMa
           if (best.residual <= tolerance) break;
         }
       }
+      // Last resort for the rare point that is still without one (its foot point close
+      // to a patch corner, reached from no sample's start): the patches of the 400
+      // nearest samples, each from the corners' and the centre's neighbourhoods too.
+      if (best.residual > tolerance) {
+        grid.nearest(p, 400, near);
+        tried.clear();
+        const bool tri = surface.triangular(0);
+        static const double starts_tri[][2] = {{0.05, 0.05}, {0.9, 0.05}, {0.05, 0.9}, {0.33, 0.33}};
+        static const double starts_quad[][2] = {{0.05, 0.05}, {0.95, 0.05}, {0.05, 0.95}, {0.95, 0.95}, {0.5, 0.5}};
+        for (const auto& [dist2, s] : near) {
+          const std::int32_t patch = grid.sample(s).patch;
+          if (std::find(tried.begin(), tried.end(), patch) != tried.end()) continue;
+          tried.push_back(patch);
+          const int n_starts = tri ? 4 : 5;
+          for (int k = 0; k < n_starts && best.residual > tolerance; ++k) {
+            const double* st = tri ? starts_tri[k] : starts_quad[k];
+            consider(project_in_patch(surface, patch, st[0], st[1], p, tolerance));
+          }
+          if (best.residual <= tolerance) break;
+        }
+      }
       out[i] = best;
     }
   });
