@@ -14,6 +14,7 @@ OpenMesh); without it ``SubdivisionMultires`` raises BackendUnavailableError.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse
 
 from . import _arrays, _core
 from .mesh import Mesh
@@ -61,6 +62,40 @@ def _control_mesh(control_mesh, scheme):
                                 f"{F.shape[1]}-sided faces (use scheme='catmark' for quads)")
     F = np.ascontiguousarray(F, dtype=np.int32)
     return np.ascontiguousarray(V, dtype=np.float64), [int(F.shape[1])] * len(F), F.ravel().tolist()
+
+
+def _volume_gradient(B, F) -> np.ndarray:
+    """d vol / d B (V, 3) of the closed mesh (B, F): vol = (1/6) sum_f p_i . (p_j x p_k),
+    so vertex i of a face gets (1/6) p_j x p_k."""
+    Pi, Pj, Pk = B[F[:, 0]], B[F[:, 1]], B[F[:, 2]]
+    G = np.zeros_like(B)
+    for idx, g in ((F[:, 0], np.cross(Pj, Pk)), (F[:, 1], np.cross(Pk, Pi)), (F[:, 2], np.cross(Pi, Pj))):
+        for a in range(3):
+            G[:, a] += np.bincount(idx, weights=g[:, a], minlength=len(B))
+    return G / 6.0
+
+
+def preserve_base_volume(Phi, F, C, target):
+    """Paper 000's volume correction with the control points as the basis: the base
+    points B = Phi C (V, 3), joined by the fine faces F, get the enclosed volume
+    ``target``. Three axis steps (x, y, z); each moves the control points along one
+    axis only, where the volume is linear, by the least-squares offsets
+    delta = a alpha / |alpha|^2 (eq. 24) with alpha = Phi^T d vol / d B_axis and
+    a = (target - vol(Phi C)) / 3 fixed before the first step: after the third step
+    the volume is ``target`` to rounding. Returns the corrected (M, 3) control
+    points (a new array)."""
+    C = np.array(C, dtype=np.float64)
+    lo, hi = _arrays.bounds(Phi @ C)
+    centre = 0.5 * (lo + hi)  # volumes about the box centre: less cancellation
+    share = (target - float(_core.signed_volume(Phi @ C, F, centre, False))) / 3.0
+    for axis in range(3):
+        alpha = Phi.T @ _volume_gradient(Phi @ C - centre, F)[:, axis]
+        norm2 = float(alpha @ alpha)
+        if not norm2 > 0:
+            raise _core.SolverError(f"preserve_volume: the volume does not depend on the control points' "
+                                    f"{'xyz'[axis]} coordinates")
+        C[:, axis] += share / norm2 * alpha
+    return C
 
 
 class SubdivisionMultires:
@@ -203,17 +238,42 @@ class SubdivisionMultires:
                                     f"({self.n_control}, 3), got {C.shape}")
         return _arrays.points(C, "control_points", rows=self.n_control)
 
-    def deform(self, control_points, normals: str = "approximate", threads=None) -> MultiresResult:
+    def deform(self, control_points, normals: str = "approximate", preserve_volume: bool = False,
+               threads=None) -> MultiresResult:
         """One frame from new control points (M, 3) (not modified).
 
         Returns a ``MultiresResult``: ``vertices`` p' = S'(t_i) + d_i N_S',
         ``normals`` (approximate, eqs. 6-7, or "exact": area-weighted normals of the
-        rebuilt mesh), ``base_vertices`` S'(t_i), ``control_points`` (M, 3).
+        rebuilt mesh), ``base_vertices`` S'(t_i), ``control_points`` (M, 3): those
+        given, or corrected with ``preserve_volume``.
+
+        preserve_volume : bool
+            correct the control points first (``preserve_base_volume``, paper 000's
+            closed form with the control points as the basis) so that the base points
+            S'(t_i), joined by the fine faces, keep their rest volume exactly
+            (``base_volume_error`` ~1e-15); the fine mesh's volume is reported
+            (``volume_error``), close but not exact. Needs a closed mesh. The
+            correction runs in numpy (three passes over the stencils and faces).
         """
         _check_normals(normals)
         C = self._control_points(control_points)
+        volume_mode = "none"
+        if preserve_volume:
+            if not self.mesh.is_closed:
+                raise InvalidInputError("SubdivisionMultires.deform: preserve_volume needs a closed mesh "
+                                        "(this one has boundary, non-manifold or misoriented edges)")
+            C = preserve_base_volume(self._phi(), self.mesh.faces, C, self._rest_volumes[1])
+            volume_mode = "base"
         X, N, B = self._m.deform(C, _threads_arg(threads))
-        return self._result(X, N, B, normals, C)
+        return self._result(X, N, B, normals, C, volume_mode)
+
+    def _phi(self):
+        """Phi (V x M CSR): the position stencils, made on first use."""
+        if self.__dict__.get("_phi_matrix") is None:
+            st = self.stencils()
+            self._phi_matrix = scipy.sparse.csr_matrix((st["w"], st["indices"], st["indptr"]),
+                                                       shape=(self.n_vertices, self.n_control))
+        return self._phi_matrix
 
     def affine_group(self, indices, control_points=None, threads=None) -> "SubdivisionAffineGroup":
         """The control points ``indices`` as a group for affine edits (§5.2.2), the
@@ -226,7 +286,7 @@ class SubdivisionMultires:
         g = self._m.affine_group(C, idx.astype(np.int32).tolist(), _threads_arg(threads))
         return SubdivisionAffineGroup(self, g, C)
 
-    def _result(self, X, N, B, normals, C) -> MultiresResult:
+    def _result(self, X, N, B, normals, C, volume_mode="none") -> MultiresResult:
         F = self.mesh.faces
         if normals == "exact":
             N = _core.vertex_normals(X, F)
@@ -234,7 +294,7 @@ class SubdivisionMultires:
         vol, bvol = _volume(X, F, closed), _volume(B, F, closed)
         return MultiresResult(vertices=X, normals=N, base_vertices=B, control_points=C, volume=vol,
                               rest_volume=rest, volume_error=_relative(vol, rest), base_volume=bvol,
-                              base_rest_volume=brest, base_volume_error=_relative(bvol, brest), volume_mode="none",
+                              base_rest_volume=brest, base_volume_error=_relative(bvol, brest), volume_mode=volume_mode,
                               normals_mode=normals, backend="openmp" if _core.has_openmp() else "serial")
 
     def __repr__(self) -> str:
