@@ -314,3 +314,16 @@ def test_preserve_volume_needs_a_closed_mesh():
     assert np.isnan(sm.deform(sm.control_points).volume)
     with pytest.raises(vpffd.InvalidInputError, match="closed mesh"):
         sm.deform(sm.control_points, preserve_volume=True)
+
+
+@needs_osd
+def test_results_do_not_depend_on_the_thread_count():
+    # Foot points are per vertex, the fit's CG sums in fixed chunks, a frame writes
+    # each vertex's own rows: the same bits on 1 and 2 threads.
+    mesh = vpffd.shapes.bumpy_sphere(3)
+    a = vpffd.SubdivisionMultires(mesh, control_vertices=80, threads=1)
+    b = vpffd.SubdivisionMultires(mesh, control_vertices=80, threads=2)
+    assert np.array_equal(a.control_points, b.control_points)
+    assert np.array_equal(a.displacements, b.displacements)
+    C = a.control_points * 1.05
+    assert np.array_equal(a.deform(C, threads=1).vertices, a.deform(C, threads=2).vertices)
