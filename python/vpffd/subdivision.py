@@ -311,11 +311,25 @@ class SubdivisionMultires:
 class SubdivisionAffineGroup:
     """A group of control points with its basis precomputed per fine vertex
     (``SubdivisionMultires.affine_group``): ``deform(T)`` moves the group by the
-    4 x 4 affine T and reads no control point (21 numbers per fine vertex)."""
+    4 x 4 affine T and reads no control point. Only the fine vertices whose stencils
+    reach the group (``influenced``) are rebuilt (21 numbers each); the others keep
+    the frame of the held control points, computed once.
+
+    Attributes
+    ----------
+    indices : (k,) int32
+        the group's control points.
+    influenced : (n,) int32
+        the fine vertices a frame rebuilds.
+    bytes_per_vertex : float
+        held per fine vertex (the held frame, 72, and 168 per influenced vertex).
+    """
 
     def __init__(self, sm: SubdivisionMultires, group, C):
         self._sm, self._g, self._C = sm, group, C
         self.indices = _read_only(group.indices)
+        self.influenced = _read_only(group.rows)
+        self.bytes_per_vertex = float(group.bytes_per_vertex)
 
     def control_points(self, transform) -> np.ndarray:
         """The control points this group's ``deform(transform)`` stands for, (M, 3)."""

@@ -166,6 +166,9 @@ def test_affine_group_equals_the_full_frame(name, scheme):
     assert np.abs(a.vertices - b.vertices).max() <= ROUND * scale
     assert np.abs(a.normals - b.normals).max() <= ROUND
     assert np.array_equal(a.control_points, C)
+    # Only the vertices the group reaches moved, and the frame rebuilt only those.
+    moved = np.flatnonzero(np.any(a.vertices != sm.deform(sm.control_points).vertices, axis=1))
+    assert set(moved) <= set(group.influenced) and 0 < len(group.influenced) < 0.5 * sm.n_vertices
 
 
 @needs_osd

@@ -118,8 +118,8 @@ void bind_subdiv(py::module_& m) {
 
   py::class_<AffineGroup>(m, "SubdivAffineGroup", "A control-point group with its basis precomputed per fine vertex.")
       .def_property_readonly("indices", [](const AffineGroup& g) { return sb::array(g.indices); })
-      .def_property_readonly_static("bytes_per_vertex",
-                                    [](py::object) { return AffineGroup::kStride * int(sizeof(double)); });
+      .def_property_readonly("rows", [](const AffineGroup& g) { return sb::array(g.rows); })
+      .def_property_readonly("bytes_per_vertex", &AffineGroup::bytes_per_vertex);
 
   m.def(
       "subdivision_decompose",

@@ -11,7 +11,7 @@
 /// j in G, is S' = R_i + A G_i + t g_i with, per fine vertex, the fixed part
 /// R_i = sum_{j not in G} w_ij c_j, the group moment G_i = sum_{j in G} w_ij c_j and
 /// weight g_i = sum_{j in G} w_ij (and likewise for S_u, S_v): 21 numbers per
-/// vertex, so a frame reads no control point at all.
+/// vertex the group reaches, so a frame reads no control point at all.
 
 #include <algorithm>
 #include <vector>
@@ -94,12 +94,22 @@ inline SubdivFrame deform_subdivision(const SubdivisionMultires& m, const Eigen:
 }
 
 /// A group of control points with its basis precomputed per fine vertex, for
-/// affine edits of the group (see the file comment).
+/// affine edits of the group (see the file comment). Only the fine vertices whose
+/// stencils reach the group move; the others keep the frame of the held control
+/// points, computed once here, so a frame copies that and rebuilds the influenced
+/// vertices alone (a few % of the mesh for a few control points).
 struct AffineGroup {
   std::vector<std::int32_t> indices;  ///< the group's control points, ascending, distinct
-  /// #V x 21 row-major: R, R_u, R_v (9), G, G_u, G_v (9), g, g_u, g_v (3).
+  std::vector<std::int32_t> rows;     ///< fine vertices whose stencils reach the group, ascending
+  /// rows.size() x 21 row-major: R, R_u, R_v (9), G, G_u, G_v (9), g, g_u, g_v (3).
   std::vector<double> data;
+  SubdivFrame held;  ///< the frame of the held control points (every vertex)
   static constexpr int kStride = 21;
+  /// Bytes held per fine vertex: the held frame (72) and 168 per influenced vertex.
+  double bytes_per_vertex() const {
+    const double n = double(held.vertices.rows());
+    return n > 0 ? 9 * sizeof(double) + double(data.size() * sizeof(double) + rows.size() * 4) / n : 0;
+  }
 };
 
 /// Precomputes the group `indices` of control points, the others held at C (M x 3).
@@ -119,20 +129,28 @@ inline AffineGroup make_affine_group(const SubdivisionMultires& m, const Eigen::
   AffineGroup g;
   g.indices = indices;
   std::sort(g.indices.begin(), g.indices.end());
-  const Index n = m.n_vertices();
-  g.data.assign(size_t(n) * AffineGroup::kStride, 0.0);
+  g.held = deform_subdivision(m, C, threads);
   const LimitStencils& st = m.stencils;
+  for (Index i = 0; i < m.n_vertices(); ++i)
+    for (std::int64_t k = st.indptr[i]; k < st.indptr[i + 1]; ++k)
+      if (in[st.indices[k]]) {
+        g.rows.push_back(std::int32_t(i));
+        break;
+      }
+  const Index n = Index(g.rows.size());
+  g.data.assign(size_t(n) * AffineGroup::kStride, 0.0);
   parallel_range(n, threads, [&](Index b, Index e) {
-    for (Index i = b; i < e; ++i) {
-      double* r = g.data.data() + i * AffineGroup::kStride;
+    for (Index r = b; r < e; ++r) {
+      const Index i = g.rows[r];
+      double* out = g.data.data() + r * AffineGroup::kStride;
       for (std::int64_t k = st.indptr[i]; k < st.indptr[i + 1]; ++k) {
         const std::int32_t j = st.indices[k];
         const double w[3] = {st.w[k], st.wu[k], st.wv[k]};
-        double* moment = in[j] ? r + 9 : r;
+        double* moment = in[j] ? out + 9 : out;
         for (int q = 0; q < 3; ++q)
           for (int a = 0; a < 3; ++a) moment[3 * q + a] += w[q] * C(j, a);
         if (in[j])
-          for (int q = 0; q < 3; ++q) r[18 + q] += w[q];
+          for (int q = 0; q < 3; ++q) out[18 + q] += w[q];
       }
     }
   });
@@ -141,25 +159,26 @@ inline AffineGroup make_affine_group(const SubdivisionMultires& m, const Eigen::
 
 /// The frame where the group moves by the affine map x -> A x + t (T = [A t; 0 1],
 /// 4 x 4) and every other control point stays where make_affine_group held it.
-/// Equal to deform_subdivision with those control points up to rounding.
+/// Equal to deform_subdivision with those control points up to rounding (and
+/// bit for bit on the vertices the group does not reach).
 /// @throws InvalidInputError for a non-finite T or a last row other than (0, 0, 0, 1)
 inline SubdivFrame deform_affine_group(const SubdivisionMultires& m, const AffineGroup& g, const Eigen::Matrix4d& T,
                                        int threads = 0) {
   VPFFD_CHECK(T.allFinite(), "AffineGroup.deform: the transform is not finite");
   VPFFD_CHECK(T(3, 0) == 0 && T(3, 1) == 0 && T(3, 2) == 0 && T(3, 3) == 1,
               "AffineGroup.deform: the last row of an affine transform must be (0, 0, 0, 1)");
-  VPFFD_CHECK(g.data.size() == size_t(m.n_vertices()) * AffineGroup::kStride,
+  VPFFD_CHECK(g.held.vertices.rows() == m.n_vertices() && g.data.size() == g.rows.size() * AffineGroup::kStride,
               "AffineGroup.deform: the group was made for another decomposition");
   const Matrix3d A = T.topLeftCorner<3, 3>();
   const Vector3d t = T.topRightCorner<3, 1>();
-  SubdivFrame f = detail::allocate_frame(m.n_vertices());
-  parallel_range(m.n_vertices(), threads, [&](Index b, Index e) {
-    for (Index i = b; i < e; ++i) {
-      const double* r = g.data.data() + i * AffineGroup::kStride;
+  SubdivFrame f = g.held;
+  parallel_range(Index(g.rows.size()), threads, [&](Index b, Index e) {
+    for (Index r = b; r < e; ++r) {
+      const double* d = g.data.data() + r * AffineGroup::kStride;
       Vector3d out[3];
       for (int q = 0; q < 3; ++q)
-        out[q] = Eigen::Map<const Vector3d>(r + 3 * q) + A * Eigen::Map<const Vector3d>(r + 9 + 3 * q) + r[18 + q] * t;
-      detail::write_vertex(f, i, m, out[0], out[1], out[2]);
+        out[q] = Eigen::Map<const Vector3d>(d + 3 * q) + A * Eigen::Map<const Vector3d>(d + 9 + 3 * q) + d[18 + q] * t;
+      detail::write_vertex(f, g.rows[r], m, out[0], out[1], out[2]);
     }
   });
   return f;
