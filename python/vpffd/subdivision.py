@@ -123,7 +123,7 @@ class SubdivisionMultires:
         ``control_vertices`` vertices (OpenMesh, quadric error, no normal flips).
     control_vertices : int, optional
         size of the decimated control mesh (default: 1 % of the fine vertices, at
-        least 64).
+        least 64, at most all).
     fairness : float >= 0
         relative weight of the fairness term (default 1e-3).
     iterations : int >= 0
@@ -181,7 +181,7 @@ class SubdivisionMultires:
                                                   int(approx_level), int(max_unresolved), threads)
         else:
             if control_vertices is None:
-                control_vertices = max(64, len(V) // 100)
+                control_vertices = min(len(V), max(64, len(V) // 100))
             if isinstance(control_vertices, bool) or not isinstance(control_vertices, (int, np.integer)):
                 raise InvalidInputError(f"SubdivisionMultires: control_vertices must be an integer, "
                                         f"got {control_vertices!r}")
