@@ -330,3 +330,15 @@ def test_results_do_not_depend_on_the_thread_count():
     assert np.array_equal(a.displacements, b.displacements)
     C = a.control_points * 1.05
     assert np.array_equal(a.deform(C, threads=1).vertices, a.deform(C, threads=2).vertices)
+
+
+@needs_osd
+@pytest.mark.parametrize("name,euler", [("bumpy_sphere", 2), ("torus", 0)])
+def test_decimation_keeps_the_topology(name, euler):
+    # OpenMesh refuses collapses that change the topology: the control mesh has the
+    # fine mesh's Euler characteristic (2 for genus 0, 0 for genus 1).
+    _, sm = decomposition(name, "loop")
+    F = sm.control_faces
+    edges = {tuple(sorted(e)) for f in F for e in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}
+    assert sm.n_control - len(edges) + len(F) == euler
+    assert sm.control_mesh.is_closed
