@@ -4,6 +4,8 @@
 
 #include "limit_surface.h"
 
+#include <algorithm>
+
 #include <opensubdiv/bfr/refinerSurfaceFactory.h>
 #include <opensubdiv/bfr/surface.h>
 #include <opensubdiv/far/topologyDescriptor.h>
@@ -108,25 +110,42 @@ LimitPoint LimitSurface::evaluate(int patch, double u, double v) const {
   const double uv[2] = {impl_->origin_u[patch] + k * u, impl_->origin_v[patch] + k * v};
   LimitPoint r;
   evaluate_first(s, pp, uv, r.p.data(), r.du.data(), r.dv.data());
-  // Second derivatives by forward differences of the first, toward the inside of
-  // the domain: Bfr's own second derivatives on irregular Loop patches are off by
-  // ~100 % (checked against differences of its first derivatives), which stalls
-  // Newton. h = 1e-7 leaves a relative error of ~1e-7 (truncation) + 1e-9
-  // (rounding): Newton then converges at that rate per step.
+  // Second derivatives by forward differences of the first: Bfr's own second
+  // derivatives on irregular Loop patches are off by ~100 % (checked against
+  // differences of its first derivatives), which stalls Newton. h = 1e-7 leaves a
+  // relative error of ~1e-7 (truncation) + 1e-9 (rounding): Newton then converges at
+  // that rate per step. The differences are taken at a base point moved inside the
+  // domain by at most h where (u, v) is on its far edges, so that no evaluation
+  // leaves the patch (Bfr does not define one outside).
   constexpr double h = 1e-7;
-  const double su = (triangular_ ? u + v + h <= 1 : u + h <= 1) ? 1.0 : -1.0;
-  const double sv = (triangular_ ? u + v + h <= 1 : v + h <= 1) ? 1.0 : -1.0;
+  double ub = u, vb = v;
+  if (triangular_) {
+    if (ub + vb > 1 - h) {
+      const double f = (1 - h) / (ub + vb);
+      ub *= f;
+      vb *= f;
+    }
+  } else {
+    ub = std::min(ub, 1 - h);
+    vb = std::min(vb, 1 - h);
+  }
+  Vector3d p0, du0 = r.du, dv0 = r.dv;
+  if (ub != u || vb != v) {
+    const double uv0[2] = {impl_->origin_u[patch] + k * ub, impl_->origin_v[patch] + k * vb};
+    evaluate_first(s, pp, uv0, p0.data(), du0.data(), dv0.data());
+  }
   Vector3d p1, du1, dv1, p2, du2, dv2;
-  const double uv1[2] = {uv[0] + su * h * k, uv[1]}, uv2[2] = {uv[0], uv[1] + sv * h * k};
+  const double uv1[2] = {impl_->origin_u[patch] + k * (ub + h), impl_->origin_v[patch] + k * vb};
+  const double uv2[2] = {impl_->origin_u[patch] + k * ub, impl_->origin_v[patch] + k * (vb + h)};
   evaluate_first(s, pp, uv1, p1.data(), du1.data(), dv1.data());
   evaluate_first(s, pp, uv2, p2.data(), du2.data(), dv2.data());
-  // Chain rule of uv = origin + k st: first derivatives scale by k; the differences
-  // below are per unit of st already (a step of h in st), so they scale by k once.
+  // Chain rule of uv = origin + k st: first derivatives scale by k, second by k^2;
+  // the differences are over a step of h in st, so they already carry one k.
   r.du *= k;
   r.dv *= k;
-  r.duu = (du1 - r.du / k) * (su * k / h);
-  r.duv = 0.5 * ((dv1 - r.dv / k) * (su * k / h) + (du2 - r.du / k) * (sv * k / h));
-  r.dvv = (dv2 - r.dv / k) * (sv * k / h);
+  r.duu = (du1 - du0) * (k / h);
+  r.duv = 0.5 * ((dv1 - dv0) + (du2 - du0)) * (k / h);
+  r.dvv = (dv2 - dv0) * (k / h);
   return r;
 }
 
