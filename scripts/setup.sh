@@ -11,6 +11,7 @@ APT_PACKAGES=(
   build-essential python3-dev python3-venv
   libeigen3-dev libgtest-dev
   libopenmesh-dev
+  libosd-dev  # OpenSubdiv 3.5: displaced subdivision surfaces (vpffd::subdiv)
   libembree-dev
   libvulkan-dev glslc libvulkan-volk-dev mesa-vulkan-drivers
   vulkan-validationlayers  # the tests run frames under the validation layer

@@ -35,6 +35,8 @@ from .deformer import Deformer, DeformResult, available_backends, vulkan_devices
 from .edits import bend, scale, squash, taper, twist
 from .lattice import Lattice
 from .multires import Multires, MultiresDeformer, MultiresResult, RBFDeformer
+from . import subdivision
+from .subdivision import SubdivisionAffineGroup, SubdivisionMultires
 from .mesh import Mesh
 from . import check, normals, io, folds, local_weights
 from .folds import FoldError, FoldReport, FoldWarning, check_folds
@@ -63,4 +65,5 @@ __all__ = [
     "render_comparison", "local_volume_change", "guess_up_axis",
     "folds", "check_folds", "FoldReport", "FoldError", "FoldWarning", "local_weights",
     "Multires", "MultiresDeformer", "MultiresResult", "RBFDeformer",
+    "subdivision", "SubdivisionMultires", "SubdivisionAffineGroup",
 ]

@@ -18,7 +18,7 @@ LAYERS = [
     ["correction", "folds"],                 # the closed-form solve and frame planning; fold checks
     ["multires"],                            # base surface + details
     ["frame"],                               # the Deformer: a frame from control points to vertices
-    ["io", "render"],                        # optional parts (OpenMesh, Embree), own targets
+    ["io", "render", "subdiv"],              # optional parts (OpenMesh, Embree, OpenSubdiv), own targets
     ["backend"],                             # other backends of the frame (Vulkan)
 ]
 # Headers kept at their old place for one release, each including its new place.

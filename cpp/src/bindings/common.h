@@ -103,6 +103,7 @@ void bind_edits(py::module_& m);
 void bind_vulkan(py::module_& m);  // bind_vulkan.cpp, with vpffd::vulkan
 void bind_io(py::module_& m);      // bind_io.cpp, with vpffd::io (OpenMesh)
 void bind_embree(py::module_& m);  // bind_embree.cpp, with vpffd::embree
+void bind_subdiv(py::module_& m);  // bind_subdiv.cpp, with vpffd::subdiv
 void bind_check(py::module_& m);   // bind_check.cpp: mesh defect report, orientation
 void bind_normals(py::module_& m); // bind_normals.cpp: rest and deformed normals
 void bind_folds(py::module_& m);   // bind_folds.cpp: fold-over certification

@@ -46,4 +46,10 @@ PYBIND11_MODULE(_core, m) {
 #else
   m.attr("has_embree") = false;
 #endif
+#ifdef VPFFD_HAS_OPENSUBDIV
+  vpffd::bindings::bind_subdiv(m);
+  m.attr("has_opensubdiv") = true;
+#else
+  m.attr("has_opensubdiv") = false;
+#endif
 }
