@@ -68,6 +68,16 @@ def rd(mr, painted):
     return vpffd.RBFDeformer(mr, deformable=deformable, handle_regions=handles)
 
 
+def test_inputs_are_copied(mr, painted):
+    deformable, handles = painted
+    d0, h0 = deformable.copy(), [h.copy() for h in handles]
+    rd = vpffd.RBFDeformer(mr, deformable=deformable, handle_regions=handles)
+    np.testing.assert_array_equal(deformable, d0)
+    for h, c in zip(handles, h0):
+        np.testing.assert_array_equal(h, c)
+    assert not rd.labels.flags.writeable and not rd.handles.flags.writeable
+
+
 def test_identity_is_exact_and_fixed_vertices_keep_their_bits(rd, mr, mesh, painted):
     assert rd.mode == "regions" and rd.n_regions == 2
     r = rd.deform(transforms=[np.eye(4), np.eye(4)])

@@ -311,9 +311,13 @@ class RbfRegions {
     const Vector3d centre = rbf.centre();
     const double inv = 1.0 / rbf.scale();
     coef_.resize(nf, 16 * K);
-    const Index chunks = (nf + kRbfChunk - 1) / kRbfChunk;
+    // Rows per work item: the basis block P (4 rows per vertex, H + 4 columns) stays
+    // within ~8 MB per thread up to kMaxRbfHandles. Each output row is its own dot
+    // products, so the chunking does not change the result.
+    const Index chunk = std::clamp<Index>(Index(1 << 18) / (H + 4), 4, kRbfChunk);
+    const Index chunks = (nf + chunk - 1) / chunk;
     parallel_items(chunks, nf * H, threads, [&](Index ch) {
-      const Index b = ch * kRbfChunk, e = std::min(nf, b + kRbfChunk), nb = e - b;
+      const Index b = ch * chunk, e = std::min(nf, b + chunk), nb = e - b;
       // Rows: [foot points | S_u derivatives | S_v derivatives | base vertices] of this chunk.
       Eigen::MatrixXd P(4 * nb, H + 4);
       for (Index r = 0; r < nb; ++r) {
