@@ -32,6 +32,12 @@ InvalidInputError = _core.InvalidInputError
 _MAX_FIXED_RINGS = 64
 
 
+def _mean_edge(mesh) -> float:
+    """Mean edge length of a triangle mesh (each interior edge counted twice)."""
+    V, F = mesh.vertices, mesh.faces
+    return float(np.mean([np.linalg.norm(V[F[:, a]] - V[F[:, (a + 1) % 3]], axis=1).mean() for a in range(3)]))
+
+
 def _backend() -> str:
     return "openmp" if _core.has_openmp() else "serial"
 
@@ -119,7 +125,7 @@ class RBFDeformer:
     ``fixed_rings`` edges of the deformable region to themselves. The basis of
     that RBF is precomputed per free vertex (16 K doubles), so a frame costs
     O(V K), the same for 10 or 10,000 handle vertices, and equals the general
-    mode's frame of ``handles`` = ``constraint_points``, targets =
+    mode's frame of ``handles`` (the constraint points), targets =
     ``targets(T)`` on the free vertices (to rounding). Construction is one
     O(H^3) factorisation and an O(V_free H K) evaluation.
 
@@ -137,6 +143,13 @@ class RBFDeformer:
     fixed_rings : int, default 2
         rings of fixed vertices around the deformable region that hold r to the
         identity (0..64).
+    spacing : float >= 0, optional
+        least distance between two constraint points of one handle region (or of
+        the fixed rings), world units: their base vertices are thinned greedily to
+        it. Default: the mesh's mean edge length (a scan's crowded vertices make the
+        (H+4)^2 system numerically singular otherwise: the armadillo's head as a
+        handle is refused at 0 and solved at one edge length); 0 keeps every vertex.
+        Handle vertices move with their map either way.
 
     Bad input (InvalidInputError, naming it): masks of the wrong length, an empty
     deformable region, overlapping or empty handle regions, handle vertices outside
@@ -146,7 +159,7 @@ class RBFDeformer:
     """
 
     def __init__(self, multires, handles=None, threads=None, *, deformable=None, handle_regions=None,
-                 fixed_rings: int = 2):
+                 fixed_rings: int = 2, spacing=None):
         _check_multires(multires, "RBFDeformer")
         self.multires = multires
         self._threads = _threads_arg(threads)
@@ -173,7 +186,9 @@ class RBFDeformer:
         n = multires.n_vertices
         mask = np.ones(n, bool) if deformable is None else _mask(deformable, n, "RBFDeformer: deformable")
         regions = _regions(handle_regions, n)
-        self._regions = _core.RbfRegions(multires._m, mask.astype(np.uint8), regions, int(fixed_rings),
+        spacing = _mean_edge(multires.mesh) if spacing is None else \
+            _arrays.positive(spacing, "spacing", "RBFDeformer", allow_zero=True)
+        self._regions = _core.RbfRegions(multires._m, mask.astype(np.uint8), regions, int(fixed_rings), spacing,
                                          self._threads)
         self.handles = _read_only(self._regions.constraint_points)
         self.labels = _read_only(self._regions.labels)

@@ -91,7 +91,10 @@ def test_identity_is_exact_and_fixed_vertices_keep_their_bits(rd, mr, mesh, pain
     # Labels: -1 fixed, 0 free, k handle region k.
     assert (rd.labels[fixed] == -1).all()
     assert (rd.labels[painted[1][0]] == 1).all() and (rd.labels[painted[1][1]] == 2).all()
-    assert rd.n_handles == len(rd.constraint_vertices) > len(painted[1][0]) + len(painted[1][1])
+    # Constraint points: thinned handle vertices (labels 1, 2) and fixed ring ones (-1).
+    assert rd.n_handles == len(rd.constraint_vertices)
+    assert set(rd.labels[rd.constraint_vertices]) == {-1, 1, 2}
+    np.testing.assert_array_equal(rd.handles, mr.base.vertices[rd.constraint_vertices])
 
 
 def test_one_rigid_motion_of_every_constraint_moves_the_mesh_rigidly(mr, mesh, painted):
@@ -124,7 +127,9 @@ def test_precomputed_basis_equals_the_general_solve(rd, mr, mesh, painted):
     tol = EXACT * max(scale, S)
     assert np.abs(r.vertices[free] - g.vertices[free]).max() <= tol
     assert np.abs(r.normals[free] - g.normals[free]).max() <= tol / scale
-    moved = rd.labels >= 0  # the base of handle vertices too: r interpolates T_k there
+    # Base vertices: the free ones, and the handle constraint points (r interpolates T_k there).
+    moved = free.copy()
+    moved[rd.constraint_vertices[rd.labels[rd.constraint_vertices] > 0]] = True
     assert np.abs(r.base_vertices[moved] - g.base_vertices[moved]).max() <= tol
     # Handle vertices move with their own map exactly; normals by its cofactor matrix.
     for k, idx in enumerate(painted[1]):
@@ -222,3 +227,47 @@ def test_thread_count_does_not_change_frames(mr, painted):
     g2 = vpffd.RBFDeformer(mr, H, threads=2).deform(H * 1.05)
     np.testing.assert_array_equal(g1.vertices, g2.vertices)
     np.testing.assert_array_equal(g1.normals, g2.normals)
+
+
+def test_spacing_thins_the_constraints(mr, painted):
+    deformable, handles = painted
+    every = vpffd.RBFDeformer(mr, deformable=deformable, handle_regions=handles, spacing=0)
+    assert every.n_handles == len(every.constraint_vertices)
+    wide = vpffd.RBFDeformer(mr, deformable=deformable, handle_regions=handles, spacing=0.15)
+    assert 4 <= wide.n_handles < every.n_handles
+    P = wide.handles
+    regions = wide.labels[wide.constraint_vertices]
+    for k in (-1, 1, 2):  # within one group no two constraint points closer than the spacing
+        Q = P[regions == k]
+        d = np.linalg.norm(Q[:, None] - Q[None], axis=2) + np.eye(len(Q)) * 1e9
+        assert d.min() >= 0.15
+    # Handle vertices still move with their map, all of them.
+    T = np.stack([_affine(np.eye(3), [0, 0, 0.2]), np.eye(4)])
+    r = wide.deform(transforms=T)
+    np.testing.assert_allclose(r.vertices[handles[0]], mr.mesh.vertices[handles[0]] + [0, 0, 0.2], rtol=0,
+                               atol=1e-15)
+    with pytest.raises(vpffd.InvalidInputError, match="spacing"):
+        vpffd.RBFDeformer(mr, deformable=deformable, handle_regions=handles, spacing=-1.0)
+
+
+def test_a_scanned_head_moved_by_a_handle(shared_meshes):
+    # The armadillo's head (dense, uneven scan vertices): refused as singular with
+    # every vertex a constraint, solved with the default spacing (one mean edge).
+    mesh = vpffd.load_mesh(shared_meshes / "armadillo.ply")
+    mr = vpffd.Multires(mesh, smoothing=10)
+    V = mesh.vertices
+    y = (V[:, 1] - V[:, 1].min()) / np.ptp(V[:, 1])
+    deformable, head = y > 0.62, [np.flatnonzero(y > 0.92)]
+    with pytest.raises(vpffd.SolverError, match="larger spacing"):
+        vpffd.RBFDeformer(mr, deformable=deformable, handle_regions=head, spacing=0)
+    rd = vpffd.RBFDeformer(mr, deformable=deformable, handle_regions=head)
+    r = rd.deform(transforms=np.eye(4))
+    assert np.abs(r.vertices - V).max() <= EXACT * _diag(V)
+    T = _affine(_rot(0.4, (0, 0, 1)), [0.05 * _diag(V), 0, 0])
+    r = rd.deform(transforms=T)
+    g = vpffd.RBFDeformer(mr, rd.handles).deform(rd.targets(T))
+    free = rd.labels == 0
+    S = _terms_magnitude(rd.handles, vpffd.RBFDeformer(mr, rd.handles)._rbf.solve(rd.targets(T)).w,
+                         mr.frame_data()["foot_points"][free])
+    assert np.abs(r.vertices[free] - g.vertices[free]).max() <= EXACT * max(_diag(V), S)
+    assert np.abs(r.vertices - V)[~deformable].max() == 0.0

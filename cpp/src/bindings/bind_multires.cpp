@@ -166,7 +166,7 @@ void bind_multires(py::module_& m) {
       .def(py::init([](std::shared_ptr<Multires> mr, py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>
                                                          deformable,
                        const std::vector<py::array_t<Index, py::array::c_style | py::array::forcecast>>& handles,
-                       int fixed_rings, int threads) {
+                       int fixed_rings, double spacing, int threads) {
              VPFFD_CHECK(deformable.ndim() == 1, "RBF regions: the deformable mask must be one-dimensional");
              std::vector<std::uint8_t> mask(deformable.data(), deformable.data() + deformable.size());
              std::vector<std::vector<Index>> h;
@@ -175,10 +175,10 @@ void bind_multires(py::module_& m) {
                h.emplace_back(a.data(), a.data() + a.size());
              }
              py::gil_scoped_release release;
-             return std::make_unique<RbfRegions>(std::move(mr), mask, h, fixed_rings, threads);
+             return std::make_unique<RbfRegions>(std::move(mr), mask, h, fixed_rings, spacing, threads);
            }),
            py::arg("multires"), py::arg("deformable"), py::arg("handles"), py::arg("fixed_rings") = 2,
-           py::arg("threads") = 0)
+           py::arg("spacing") = 0.0, py::arg("threads") = 0)
       .def_property_readonly("n_regions", &RbfRegions::n_regions)
       .def_property_readonly("n_free", &RbfRegions::n_free)
       .def_property_readonly("doubles_per_free_vertex", &RbfRegions::doubles_per_free_vertex)

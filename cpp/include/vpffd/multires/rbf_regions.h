@@ -42,6 +42,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -100,6 +101,43 @@ inline std::vector<Index> ring_vertices(const RowMatrixX3i& F, Index nv, const s
   return out;
 }
 
+/// The ids (in their order) that greedy thinning keeps: an id is kept when no id
+/// kept before it lies closer than `spacing` (world units; 0 keeps every id), found
+/// through a hash grid of cells of that size.
+inline std::vector<Index> thin_points(const RowMatrixX3d& P, const std::vector<Index>& ids, double spacing) {
+  if (!(spacing > 0) || ids.size() < 2) return ids;
+  auto cell = [&](Index id) {
+    Eigen::Array<std::int64_t, 3, 1> c;
+    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>(std::floor(P(id, a) / spacing));
+    return c;
+  };
+  auto key = [](std::int64_t x, std::int64_t y, std::int64_t z) {  // collisions only cost distance checks
+    return (std::uint64_t(x) & 0x1FFFFF) << 42 | (std::uint64_t(y) & 0x1FFFFF) << 21 | (std::uint64_t(z) & 0x1FFFFF);
+  };
+  std::unordered_map<std::uint64_t, std::vector<Index>> grid;
+  std::vector<Index> out;
+  for (Index id : ids) {
+    const auto c = cell(id);
+    bool keep = true;
+    for (int dx = -1; dx <= 1 && keep; ++dx)
+      for (int dy = -1; dy <= 1 && keep; ++dy)
+        for (int dz = -1; dz <= 1 && keep; ++dz) {
+          const auto it = grid.find(key(c[0] + dx, c[1] + dy, c[2] + dz));
+          if (it == grid.end()) continue;
+          for (Index q : it->second)
+            if ((P.row(q) - P.row(id)).norm() < spacing) {
+              keep = false;
+              break;
+            }
+        }
+    if (keep) {
+      grid[key(c[0], c[1], c[2])].push_back(id);
+      out.push_back(id);
+    }
+  }
+  return out;
+}
+
 /// Checks that T (region k, 1-based) is a finite, non-singular affine map.
 inline void check_affine(const Matrix4d& T, Index k) {
   VPFFD_CHECK(T.allFinite(), "RBF regions: the transform of handle region ", k, " contains NaN or Inf");
@@ -125,13 +163,19 @@ class RbfRegions {
   ///                        region, pairwise disjoint, none empty
   /// @param[in] fixed_rings rings of fixed vertices around the deformable region
   ///                        that constrain r to the identity (0..64)
+  /// @param[in] spacing     least distance between two constraint points of one
+  ///                        region (or of the fixed rings), world units: the base
+  ///                        vertices are thinned greedily to it (0: every vertex).
+  ///                        The system's condition grows fast as constraints crowd
+  ///                        together; a scan's dense handle needs a few edge lengths.
   /// @throws InvalidInputError naming the problem: wrong mask length, empty
   ///         deformable region, empty/out-of-range/overlapping handle regions, a
   ///         handle vertex outside the deformable region, no free vertex left,
   ///         constraint points the RBF cannot interpolate (too few, coplanar,
   ///         duplicates); SolverError for a numerically singular system
   RbfRegions(std::shared_ptr<const Multires> m, const std::vector<std::uint8_t>& deformable,
-             const std::vector<std::vector<Index>>& handles, int fixed_rings = 2, int threads = 0)
+             const std::vector<std::vector<Index>>& handles, int fixed_rings = 2, double spacing = 0,
+             int threads = 0)
       : m_(std::move(m)) {
     VPFFD_CHECK(m_ != nullptr, "RBF regions: no decomposition");
     const Index nv = m_->n_vertices();
@@ -139,6 +183,9 @@ class RbfRegions {
                 " entries for a mesh of ", nv, " vertices");
     VPFFD_CHECK(fixed_rings >= 0 && fixed_rings <= kMaxFixedRings, "RBF regions: fixed_rings ", fixed_rings,
                 ", expected 0..", kMaxFixedRings);
+    const double diag = (m_->base.colwise().maxCoeff() - m_->base.colwise().minCoeff()).norm();
+    VPFFD_CHECK(std::isfinite(spacing) && (spacing == 0 || spacing >= 1e-9 * diag), "RBF regions: spacing ", spacing,
+                ", expected 0 or a finite length of at least 1e-9 of the base's diagonal (", diag, ")");
     const Index K = static_cast<Index>(handles.size());
     VPFFD_CHECK(K >= 1, "RBF regions: no handle region; at least one is needed");
     VPFFD_CHECK(K <= kMaxRbfRegions, "RBF regions: ", K, " handle regions; at most ", kMaxRbfRegions);
@@ -157,11 +204,21 @@ class RbfRegions {
                     " is outside the deformable region");
         VPFFD_CHECK(label_[i] == 0 || label_[i] == k + 1, "RBF regions: vertex ", i, " is in handle regions ",
                     label_[i], " and ", k + 1, "; handle regions must not overlap");
-        if (label_[i] == 0) {
-          label_[i] = static_cast<std::int32_t>(k + 1);
-          constraint_.push_back(i);
-          constraint_region_.push_back(static_cast<std::int32_t>(k + 1));
+        if (label_[i] == 0) label_[i] = static_cast<std::int32_t>(k + 1);
+      }
+    }
+    // Each region's constraints: its vertices in the given order (once each), thinned.
+    for (Index k = 0; k < K; ++k) {
+      std::vector<Index> ids;
+      for (Index i : handles[k])
+        if (label_[i] == k + 1) {
+          ids.push_back(i);
+          label_[i] = -2;  // seen
         }
+      for (Index i : ids) label_[i] = static_cast<std::int32_t>(k + 1);
+      for (Index i : detail::thin_points(m_->base, ids, spacing)) {
+        constraint_.push_back(i);
+        constraint_region_.push_back(static_cast<std::int32_t>(k + 1));
       }
     }
     for (Index i = 0; i < nv; ++i)
@@ -170,7 +227,7 @@ class RbfRegions {
                 " vertices); no vertex is left to deform");
     std::vector<std::uint8_t> inside(nv);
     for (Index i = 0; i < nv; ++i) inside[i] = label_[i] >= 0;
-    for (Index i : detail::ring_vertices(m_->faces, nv, inside, fixed_rings)) {
+    for (Index i : detail::thin_points(m_->base, detail::ring_vertices(m_->faces, nv, inside, fixed_rings), spacing)) {
       constraint_.push_back(i);
       constraint_region_.push_back(0);
     }
@@ -186,6 +243,9 @@ class RbfRegions {
       throw InvalidInputError(detail::concat("RBF regions: the ", H, " constraint points (", H - fixed_count(),
                                              " base vertices of the ", K, " handle regions, ", fixed_count(),
                                              " of the fixed rings) cannot be interpolated: ", e.what()));
+    } catch (const SolverError& e) {
+      throw SolverError(detail::concat("RBF regions: the ", H, " constraint points (spacing ", spacing,
+                                       ") crowd together: ", e.what(), "; thin them with a larger spacing"));
     }
     // Column groups of E: 0 the fixed rows' (h_j^T, 1), k >= 1 region k + 1's (see the file comment).
     Eigen::MatrixXd E = Eigen::MatrixXd::Zero(H + 4, 4 * K);
