@@ -367,7 +367,7 @@ class RbfRegions:
     """
     Paper 002 Section 6: deformable region, K handle regions moved by affine maps, the RBF deformation basis precomputed per free vertex.
     """
-    def __init__(self, multires: Multires, deformable: numpy.typing.NDArray[numpy.uint8], handles: list[numpy.typing.NDArray[numpy.int64]], fixed_rings: typing.SupportsInt | typing.SupportsIndex = 2, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
+    def __init__(self, multires: Multires, deformable: numpy.typing.NDArray[numpy.uint8], handles: list[numpy.typing.NDArray[numpy.int64]], fixed_rings: typing.SupportsInt | typing.SupportsIndex = 2, spacing: typing.SupportsFloat = 0.0, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
         ...
     def deform(self, transforms: list[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[4, 4]"]], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
         """
