@@ -174,6 +174,22 @@ TEST(RbfRegions, BlockedKernelMatchesThePerPointEvaluation) {
   }
 }
 
+TEST(RbfRegions, SpacingThinsEachGroupAndKeepsTheFrameExact) {
+  const Setting s = setting(3);
+  const double spacing = 0.15;
+  const RbfRegions all(s.mr, s.deformable, s.handles);
+  const RbfRegions thin(s.mr, s.deformable, s.handles, 2, spacing);
+  EXPECT_LT(thin.constraint_points().rows(), all.constraint_points().rows());
+  const auto& reg = thin.constraint_regions();
+  const RowMatrixX3d& P = thin.constraint_points();
+  for (Index a = 0; a < P.rows(); ++a)
+    for (Index b = 0; b < a; ++b)
+      if (reg[a] == reg[b]) ASSERT_GE((P.row(a) - P.row(b)).norm(), spacing) << a << " " << b;
+  const Frame f = frame(thin, {Matrix4d::Identity(), Matrix4d::Identity()});
+  EXPECT_LT((f.X - s.mr->fine).cwiseAbs().maxCoeff(), kExact * diag(s.mr->fine));
+  EXPECT_THROW(RbfRegions(s.mr, s.deformable, s.handles, 2, -1.0), InvalidInputError);
+}
+
 TEST(RbfRegions, RefusesBadSettingsAndMaps) {
   const Setting s = setting(2);
   const Index nv = s.mr->n_vertices();
