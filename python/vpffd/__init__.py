@@ -34,7 +34,8 @@ from . import edits, shapes
 from .deformer import Deformer, DeformResult, available_backends, vulkan_devices
 from .edits import bend, scale, squash, taper, twist
 from .lattice import Lattice
-from .multires import Multires, MultiresDeformer, MultiresResult, RBFDeformer
+from .multires import Multires, MultiresDeformer, MultiresResult
+from .rbf import RBFDeformer
 from . import subdivision
 from .subdivision import SubdivisionAffineGroup, SubdivisionMultires
 from .mesh import Mesh

@@ -8,7 +8,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['BackendUnavailableError', 'CorrectionOptions', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'Multires', 'MultiresFFD', 'RayScene', 'RbfMap', 'RbfWeights', 'SolverError', 'VulkanDeformer', 'VulkanMultires', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'cone_volumes', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
+__all__: list[str] = ['BackendUnavailableError', 'CorrectionOptions', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'Multires', 'MultiresFFD', 'RayScene', 'RbfMap', 'RbfRegions', 'RbfWeights', 'SolverError', 'VulkanDeformer', 'VulkanMultires', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'cone_volumes', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
 class InvalidInputError(ValueError):
     pass
 class SolverError(RuntimeError):
@@ -349,7 +349,7 @@ class RbfMap:
         ...
     def deform(self, multires: Multires, weights: RbfWeights, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
         ...
-    def jacobians(self, weights: RbfWeights, points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]"]:
+    def jacobians(self, weights: RbfWeights, points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]"]:
         """
         (n, 9) row-major Jacobians of the map.
         """
@@ -362,6 +362,41 @@ class RbfMap:
         ...
     @property
     def n_handles(self) -> int:
+        ...
+class RbfRegions:
+    """
+    Paper 002 Section 6: deformable region, K handle regions moved by affine maps, the RBF deformation basis precomputed per free vertex.
+    """
+    def __init__(self, multires: Multires, deformable: numpy.typing.NDArray[numpy.uint8], handles: list[numpy.typing.NDArray[numpy.int64]], fixed_rings: typing.SupportsInt | typing.SupportsIndex = 2, spacing: typing.SupportsFloat = 0.0, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
+        ...
+    def deform(self, transforms: list[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[4, 4]"]], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
+        """
+        (vertices (V, 3), unit normals (V, 3), base vertices (V, 3)) for K (4, 4) affine transforms.
+        """
+    def targets(self, transforms: list[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[4, 4]"]]) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        """
+        (H, 3) constraint targets of the K (4, 4) transforms.
+        """
+    @property
+    def constraint_points(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        ...
+    @property
+    def constraint_regions(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
+    @property
+    def constraint_vertices(self) -> numpy.typing.NDArray[numpy.int64]:
+        ...
+    @property
+    def doubles_per_free_vertex(self) -> int:
+        ...
+    @property
+    def labels(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
+    @property
+    def n_free(self) -> int:
+        ...
+    @property
+    def n_regions(self) -> int:
         ...
 class VulkanDeformer:
     def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], lattice: LatticeSpec, outside: str = 'error', device: str = '', precision: str = 'auto', parts: typing.Any = None) -> None:

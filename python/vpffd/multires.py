@@ -15,7 +15,7 @@ Frames run on the CPU (OpenMP or serial) or, for ``MultiresDeformer``, on a Vulk
 device (``backend="vulkan"``: one compute dispatch, in the same submission as the
 volume correction, rebuilds positions and approximate normals from the foot points'
 embedding, S_u, S_v, d and the six coefficients, uploaded once; see
-``MultiresDeformer``). ``RBFDeformer`` runs on the
+``MultiresDeformer``). ``RBFDeformer`` (``rbf.py``) runs on the
 CPU.
 """
 from __future__ import annotations
@@ -515,54 +515,3 @@ class MultiresDeformer:
         return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend,
                        out_normals)
 
-
-class RBFDeformer:
-    """Triharmonic RBF space deformation of a decomposition's base (paper §6).
-
-    r(x) = sum_j w_j |x - h_j|^3 + A x + b interpolates handle targets; the
-    (H+4)^2 system is LU-factorised once here, each ``deform`` is a back-substitution.
-    The fine mesh is rebuilt from S' = r(S(t_i)), S'_u = J_r S_u, S'_v = J_r S_v.
-
-    Parameters
-    ----------
-    multires : Multires
-    handles : (H, 3) rest-space points, or a Mesh (its vertices)
-        H >= 4, distinct, not all in one plane (else InvalidInputError naming the problem).
-    threads : int, optional
-    """
-
-    def __init__(self, multires, handles, threads=None):
-        _check_multires(multires, "RBFDeformer")
-        if hasattr(handles, "vertices") and hasattr(handles, "faces"):
-            handles = np.asarray(handles.vertices)
-        H = _arrays.points(handles, "RBFDeformer: handles")
-        self.multires = multires
-        self.handles = _read_only(H)
-        self._threads = _threads_arg(threads)
-        self._rbf = _core.RbfMap(H)
-
-    @property
-    def n_handles(self) -> int:
-        return self.handles.shape[0]
-
-    def _solve(self, targets):
-        T = _arrays.points(targets, "RBFDeformer: targets", rows=self.n_handles)
-        return self._rbf.solve(T)
-
-    def deform(self, targets, normals: str = "approximate") -> MultiresResult:
-        """The frame that takes each handle to its target ((H, 3), world units)."""
-        _check_normals(normals)
-        W = self._solve(targets)
-        X, N = self._rbf.deform(self.multires._m, W, self._threads)
-        B = self._rbf.map(W, self.multires.base.vertices, self._threads)
-        return _result(self.multires, X, N, B, normals, None, "none", "openmp" if _core.has_openmp() else "serial")
-
-    def map(self, points, targets) -> np.ndarray:
-        """(n, 3) images of rest-space ``points`` under the map for ``targets``."""
-        X = _arrays.points(points, "RBFDeformer.map: points")
-        return self._rbf.map(self._solve(targets), X, self._threads)
-
-    def jacobians(self, points, targets) -> np.ndarray:
-        """(n, 3, 3) Jacobians dr/dx at rest-space ``points`` (analytic)."""
-        X = _arrays.points(points, "RBFDeformer.jacobians: points")
-        return self._rbf.jacobians(self._solve(targets), X).reshape(-1, 3, 3)

@@ -4,6 +4,7 @@
 #include "vpffd/multires/decomposition.h"
 #include "vpffd/multires/ffd_map.h"
 #include "vpffd/multires/rbf_map.h"
+#include "vpffd/multires/rbf_regions.h"
 
 namespace vpffd::bindings {
 
@@ -147,19 +148,16 @@ void bind_multires(py::module_& m) {
           py::arg("weights"), py::arg("points"), py::arg("threads") = 0)
       .def(
           "jacobians",
-          [](const RbfMap& r, const RbfWeights& W, RefV X) {
-            VPFFD_CHECK(X.allFinite(), "RBF: points contain NaN or Inf");
-            RowMatrixXd J(X.rows(), 9);
-            for (Index i = 0; i < X.rows(); ++i) {
-              Vector3d v;
-              Matrix3d Ji;
-              r.eval(W, X.row(i).transpose(), v, Ji);
-              for (int a = 0; a < 3; ++a)
-                for (int c = 0; c < 3; ++c) J(i, 3 * a + c) = Ji(a, c);
+          [](const RbfMap& r, const RbfWeights& W, RefV X, int threads) {
+            RowMatrixX3d values;
+            RowMatrixXd J;
+            {
+              py::gil_scoped_release release;
+              r.map_jacobians(W, X, values, J, threads);
             }
             return J;
           },
-          py::arg("weights"), py::arg("points"), "(n, 9) row-major Jacobians of the map.")
+          py::arg("weights"), py::arg("points"), py::arg("threads") = 0, "(n, 9) row-major Jacobians of the map.")
       .def(
           "deform",
           [](const RbfMap& r, std::shared_ptr<Multires> mr, const RbfWeights& W, int threads) {
@@ -171,6 +169,60 @@ void bind_multires(py::module_& m) {
             return frame_to_python(std::move(f));
           },
           py::arg("multires"), py::arg("weights"), py::arg("threads") = 0);
+
+  py::class_<RbfRegions>(m, "RbfRegions",
+                         "Paper 002 Section 6: deformable region, K handle regions moved by affine maps, the RBF "
+                         "deformation basis precomputed per free vertex.")
+      .def(py::init([](std::shared_ptr<Multires> mr, py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>
+                                                         deformable,
+                       const std::vector<py::array_t<Index, py::array::c_style | py::array::forcecast>>& handles,
+                       int fixed_rings, double spacing, int threads) {
+             VPFFD_CHECK(deformable.ndim() == 1, "RBF regions: the deformable mask must be one-dimensional");
+             std::vector<std::uint8_t> mask(deformable.data(), deformable.data() + deformable.size());
+             std::vector<std::vector<Index>> h;
+             for (const auto& a : handles) {
+               VPFFD_CHECK(a.ndim() == 1, "RBF regions: each handle region must be a 1-D array of vertex indices");
+               h.emplace_back(a.data(), a.data() + a.size());
+             }
+             py::gil_scoped_release release;
+             return std::make_unique<RbfRegions>(std::move(mr), mask, h, fixed_rings, spacing, threads);
+           }),
+           py::arg("multires"), py::arg("deformable"), py::arg("handles"), py::arg("fixed_rings") = 2,
+           py::arg("spacing") = 0.0, py::arg("threads") = 0)
+      .def_property_readonly("n_regions", &RbfRegions::n_regions)
+      .def_property_readonly("n_free", &RbfRegions::n_free)
+      .def_property_readonly("doubles_per_free_vertex", &RbfRegions::doubles_per_free_vertex)
+      .def_property_readonly("labels",
+                             [](const RbfRegions& r) {
+                               return py::array_t<std::int32_t>(r.labels().size(), r.labels().data());
+                             })
+      .def_property_readonly("constraint_vertices",
+                             [](const RbfRegions& r) {
+                               return py::array_t<Index>(r.constraint_vertices().size(), r.constraint_vertices().data());
+                             })
+      .def_property_readonly("constraint_regions",
+                             [](const RbfRegions& r) {
+                               return py::array_t<std::int32_t>(r.constraint_regions().size(),
+                                                                r.constraint_regions().data());
+                             })
+      .def_property_readonly("constraint_points", &RbfRegions::constraint_points)
+      .def(
+          "targets",
+          [](const RbfRegions& r, const std::vector<Matrix4d>& T) { return r.targets(T); }, py::arg("transforms"),
+          "(H, 3) constraint targets of the K (4, 4) transforms.")
+      .def(
+          "deform",
+          [](const RbfRegions& r, const std::vector<Matrix4d>& T, int threads) {
+            const Index nv = r.multires().n_vertices();
+            RowMatrixX3d X(nv, 3), N(nv, 3), B(nv, 3);
+            {
+              py::gil_scoped_release release;
+              r.deform(T, X.data(), N.data(), B.data(), threads);
+            }
+            return py::make_tuple(std::move(X), std::move(N), std::move(B));
+          },
+          py::arg("transforms"), py::arg("threads") = 0,
+          "(vertices (V, 3), unit normals (V, 3), base vertices (V, 3)) for K (4, 4) affine transforms.");
 }
 
 }  // namespace vpffd::bindings

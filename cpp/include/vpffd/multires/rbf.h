@@ -31,6 +31,7 @@
 #include "vpffd/core/exceptions.h"
 #include "vpffd/core/parallel.h"
 #include "vpffd/core/types.h"
+#include "vpffd/multires/rbf_kernel.h"
 
 namespace vpffd {
 
@@ -91,6 +92,20 @@ class RbfMap {
   Index n_handles() const { return c_.rows(); }
   const RowMatrixX3d& handles() const { return h_; }
 
+  /// Normalised centres (H x 3), and the world point and length they are relative to.
+  const RowMatrixX3d& centres() const { return c_; }
+  const Vector3d& centre() const { return centre_; }
+  double scale() const { return scale_; }
+
+  /// Solves M X = rhs for any number of right-hand sides ((H+4) x m), with one step
+  /// of iterative refinement (the residual of the first solve, solved again).
+  Eigen::MatrixXd solve_columns(const Eigen::MatrixXd& rhs) const {
+    VPFFD_CHECK(rhs.rows() == M_.rows(), "RBF: ", rhs.rows(), " right-hand-side rows for a system of ", M_.rows());
+    Eigen::MatrixXd x = lu_.solve(rhs);
+    x += lu_.solve(rhs - M_ * x);
+    return x;
+  }
+
   /// Solves for targets H' (H x 3). @throws InvalidInputError for a wrong shape or NaN
   RbfWeights solve(const Eigen::Ref<const RowMatrixX3d>& targets) const {
     const Index H = c_.rows();
@@ -98,13 +113,30 @@ class RbfMap {
     VPFFD_CHECK(targets.allFinite(), "RBF: targets contain NaN or Inf");
     Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(H + 4, 3);
     rhs.topRows(H) = targets;
-    Eigen::MatrixXd x = lu_.solve(rhs);
-    x += lu_.solve(rhs - M_ * x);  // one step of iterative refinement
+    const Eigen::MatrixXd x = solve_columns(rhs);
     RbfWeights W;
     W.w = x.topRows(H);
     W.A = x.middleRows(H, 3).transpose();
     W.b = x.row(H + 3).transpose();
     return W;
+  }
+
+  /// The solved map W laid out for the blocked kernel (rbf_kernel.h).
+  RbfTerms terms(const RbfWeights& W) const {
+    RbfTerms t;
+    for (int a = 0; a < 3; ++a) {
+      t.c[a].resize(c_.rows());
+      t.w[a].resize(c_.rows());
+      for (Index j = 0; j < c_.rows(); ++j) {
+        t.c[a][j] = c_(j, a);
+        t.w[a][j] = W.w(j, a);
+      }
+    }
+    t.A = W.A;
+    t.b = W.b;
+    t.centre = centre_;
+    t.scale = scale_;
+    return t;
   }
 
   /// r(x) and J_r(x) (x in world coordinates; W from solve(), in normalised ones).
@@ -123,19 +155,24 @@ class RbfMap {
     J = g / scale_;
   }
 
-  /// r at the rows of X (#X x 3).
+  /// r at the rows of X (#X x 3), by the blocked kernel (rbf_kernel.h; the same
+  /// value as eval() to rounding).
   RowMatrixX3d map(const RbfWeights& W, const Eigen::Ref<const RowMatrixX3d>& X, int threads = 0) const {
     VPFFD_CHECK(X.allFinite(), "RBF: points contain NaN or Inf");
+    VPFFD_CHECK(W.w.rows() == c_.rows(), "RBF: weights for ", W.w.rows(), " handles, the map has ", c_.rows());
     RowMatrixX3d out(X.rows(), 3);
-    parallel_range(X.rows(), threads, [&](Index b, Index e) {
-      Vector3d v;
-      Matrix3d J;
-      for (Index i = b; i < e; ++i) {
-        eval(W, X.row(i).transpose(), v, J);
-        out.row(i) = v.transpose();
-      }
-    });
+    rbf_eval_points(terms(W), X.data(), X.rows(), out.data(), nullptr, threads);
     return out;
+  }
+
+  /// r and J_r (#X x 9 row-major) at the rows of X, by the blocked kernel.
+  void map_jacobians(const RbfWeights& W, const Eigen::Ref<const RowMatrixX3d>& X, RowMatrixX3d& values,
+                     RowMatrixXd& J, int threads = 0) const {
+    VPFFD_CHECK(X.allFinite(), "RBF: points contain NaN or Inf");
+    VPFFD_CHECK(W.w.rows() == c_.rows(), "RBF: weights for ", W.w.rows(), " handles, the map has ", c_.rows());
+    values.resize(X.rows(), 3);
+    J.resize(X.rows(), 9);
+    rbf_eval_points(terms(W), X.data(), X.rows(), values.data(), J.data(), threads);
   }
 
  private:
