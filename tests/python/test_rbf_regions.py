@@ -258,8 +258,11 @@ def test_a_scanned_head_moved_by_a_handle(shared_meshes):
     V = mesh.vertices
     y = (V[:, 1] - V[:, 1].min()) / np.ptp(V[:, 1])
     deformable, head = y > 0.62, [np.flatnonzero(y > 0.92)]
+    # (On the faired base: the fitted one follows the scan, whose constraint matrix
+    # at spacing 0 happens to stay just within the solver's conditioning bound.)
+    faired = vpffd.Multires(mesh, smoothing=10, fit_rounds=0)
     with pytest.raises(vpffd.SolverError, match="larger spacing"):
-        vpffd.RBFDeformer(mr, deformable=deformable, handle_regions=head, spacing=0)
+        vpffd.RBFDeformer(faired, deformable=deformable, handle_regions=head, spacing=0)
     rd = vpffd.RBFDeformer(mr, deformable=deformable, handle_regions=head)
     r = rd.deform(transforms=np.eye(4))
     assert np.abs(r.vertices - V).max() <= EXACT * _diag(V)
