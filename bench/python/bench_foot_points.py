@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -22,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 import vpffd
+from vpffd.cli.benchmark import cpu_model
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared" / "data" / "meshes"
@@ -37,16 +37,6 @@ def turned_faces(rest, deformed, F, J) -> int:
     Jf = J[F].mean(axis=1)
     cof = np.linalg.inv(Jf).transpose(0, 2, 1) * np.linalg.det(Jf)[:, None, None]
     return int(((np.einsum("fij,fj->fi", cof, fn(rest)) * fn(deformed)).sum(1) < 0).sum())
-
-
-def cpu_name() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def run(names, out: Path) -> None:
@@ -78,7 +68,7 @@ def run(names, out: Path) -> None:
     lines = [
         "# Foot points and the fitted base on the closed scans",
         "",
-        f"One run of `bench/python/bench_foot_points.py` on {cpu_name()} ({os.cpu_count()} cores, shared "
+        f"One run of `bench/python/bench_foot_points.py` on {cpu_model()} ({os.cpu_count()} cores, shared "
         f"development VM), load average {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} at the end. "
         "8³ cubic lattice around each mesh, no volume correction, OpenMP frames. "
         "Turned: faces whose deformed normal points against cof(J) n0 of the plain FFD "

@@ -27,16 +27,7 @@ import time
 import numpy as np
 
 import vpffd
-
-
-def median_ms(f, repeats):
-    f()  # warm-up
-    t = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        f()
-        t.append(time.perf_counter() - t0)
-    return 1e3 * float(np.median(t))
+from vpffd.cli.benchmark import median_ms
 
 
 def scipy_positions(H, T, X):
