@@ -119,14 +119,11 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
               " (the faces stay; give every vertex a new position)");
   const Lattice& L = cpu->lattice();
   const bool refuse_outside = cpu->outside_policy() == OutsidePolicy::Error;
-  // embed()'s tests, in the same double arithmetic: its tolerance for points on the
-  // box's faces, and its limit of 1000 box extents.
-  Vector3d tol, lo, hi;
+  // embed()'s tests, in the same double arithmetic (lattice/embed.h's rules).
+  AxisInterval box[3], reach[3];
   for (int a = 0; a < 3; ++a) {
-    tol[a] = 1e-12 * (L.box_max[a] - L.box_min[a]);
-    const double w = L.domain_hi(a) - L.domain_lo(a);
-    lo[a] = L.domain_lo(a) - 1e3 * w;
-    hi[a] = L.domain_hi(a) + 1e3 * w;
+    box[a] = accepted_box(L, a);
+    reach[a] = accepted_parameters(L, a);
   }
   const bool periodic = L.any_periodic();
   // On a periodic axis any distance is inside, but the device wraps in reals (float-float:
@@ -153,10 +150,10 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   const double inf = std::numeric_limits<double>::infinity();
   for (int j = 0; j < 12; ++j) {
     const int a = j % 3;
-    c.lo[j] = refuse_outside ? L.box_min[a] - tol[a] : -inf;
-    c.hi[j] = refuse_outside ? L.box_max[a] + tol[a] : inf;
-    c.u_lo[j] = lo[a];
-    c.u_hi[j] = hi[a];
+    c.lo[j] = refuse_outside ? box[a].lo : -inf;
+    c.hi[j] = refuse_outside ? box[a].hi : inf;
+    c.u_lo[j] = reach[a].lo;
+    c.u_hi[j] = reach[a].hi;
     c.p_lo[j] = to_parameter.lo[a];
     c.p_k[j] = to_parameter.k[a];
     c.box_lo[j] = to_parameter.box_min[a];
@@ -346,11 +343,9 @@ void VulkanDeformer::Impl::offset_rest(const Eigen::Ref<const RowMatrixX3d>& O, 
           ok &= std::isfinite(x) && std::abs(x - centre) <= std::ldexp(1.0, 24) * (L.box_max[a] - L.box_min[a]);
           continue;
         }
-        const double w = L.domain_hi(a) - L.domain_lo(a);
         const double u = to_parameter.lo[a] + (x - to_parameter.box_min[a]) * to_parameter.k[a];
-        const double tol = 1e-12 * (L.box_max[a] - L.box_min[a]);
-        ok &= u >= L.domain_lo(a) - 1e3 * w && u <= L.domain_hi(a) + 1e3 * w;
-        if (refuse_outside) ok &= x >= L.box_min[a] - tol && x <= L.box_max[a] + tol;
+        ok &= accepted_parameters(L, a).contains(u);
+        if (refuse_outside) ok &= accepted_box(L, a).contains(x);
       }
   }
   if (!ok) {

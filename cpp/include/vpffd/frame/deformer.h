@@ -186,10 +186,7 @@ class Deformer {
       ++size[k];
       const Vector3d x = periodic ? wrap_point(lattice_, V.row(v).transpose()) : Vector3d(V.row(v).transpose());
       bool outside = !x.allFinite();
-      for (int a = 0; a < 3; ++a) {
-        const double tol = 1e-12 * (lattice_.box_max[a] - lattice_.box_min[a]);
-        outside |= x[a] < lattice_.box_min[a] - tol || x[a] > lattice_.box_max[a] + tol;
-      }
+      for (int a = 0; a < 3; ++a) outside |= !accepted_box(lattice_, a).contains(x[a]);
       out[k] += outside;
     }
     std::string named;

@@ -58,6 +58,32 @@ inline BasisTables basis_tables(const Lattice& L) {
   return T;
 }
 
+/// The embedding's rules, each written once; the CPU embedding, the rest moves and
+/// the Vulkan backend's checks all call these.
+///
+/// A point is inside the box along axis a when it lies within the box widened by
+/// 1e-12 of the box's extent on each side: rounding in the box computation (a box
+/// around a mesh, a mesh moved by whole extents) must not throw out points on its
+/// faces.
+struct AxisInterval {
+  double lo, hi;
+  bool contains(double x) const { return x >= lo && x <= hi; }
+};
+inline AxisInterval accepted_box(const Lattice& L, int a) {
+  const double tol = 1e-12 * (L.box_max[a] - L.box_min[a]);
+  return {L.box_min[a] - tol, L.box_max[a] + tol};
+}
+/// The parameters the embedding accepts along axis a, inside or outside the box:
+/// the domain widened by 1000 domain widths on each side. Extrapolated polynomial
+/// pieces grow as distance^degree: a thousand box extents away they are no
+/// deformation anyone wants, and further away they overflow. Points beyond are
+/// refused with the non-finite ones.
+inline constexpr double kFarDomainWidths = 1e3;
+inline AxisInterval accepted_parameters(const Lattice& L, int a) {
+  const double w = L.domain_hi(a) - L.domain_lo(a);
+  return {L.domain_lo(a) - kFarDomainWidths * w, L.domain_hi(a) + kFarDomainWidths * w};
+}
+
 namespace detail {
 
 /// embed_into and embed_cells: the rows of X (in the order `order`, if not null)
@@ -75,17 +101,13 @@ inline void embed_rows(const Lattice& L, const Eigen::Ref<const RowMatrixX3d>& X
   const ParameterMap to_parameter(L);  // u = lo + (x - box_min) k, axis by axis
   double in_lo[3], in_hi[3], dom_lo[3], dom_hi[3], far_lo[3], far_hi[3], box_lo[3], scale[3];
   for (int a = 0; a < 3; ++a) {
-    // Rounding in the box computation must not throw out points on its faces.
-    const double tol = 1e-12 * (L.box_max[a] - L.box_min[a]);
-    in_lo[a] = L.box_min[a] - tol;
-    in_hi[a] = L.box_max[a] + tol;
+    const AxisInterval box = accepted_box(L, a), far = accepted_parameters(L, a);
+    in_lo[a] = box.lo;
+    in_hi[a] = box.hi;
     dom_lo[a] = to_parameter.lo[a];
     dom_hi[a] = L.domain_hi(a);
-    // Extrapolated polynomial pieces grow as distance^degree: a thousand box
-    // extents away they are no deformation anyone wants, and further away they
-    // overflow. Such points are refused with the non-finite ones.
-    far_lo[a] = dom_lo[a] - 1e3 * (dom_hi[a] - dom_lo[a]);
-    far_hi[a] = dom_hi[a] + 1e3 * (dom_hi[a] - dom_lo[a]);
+    far_lo[a] = far.lo;
+    far_hi[a] = far.hi;
     box_lo[a] = to_parameter.box_min[a];
     scale[a] = to_parameter.k[a];
   }
