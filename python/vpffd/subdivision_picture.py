@@ -113,7 +113,8 @@ def render_subdivision_edit(sm, result, *, size=(1600, 480), up=None, samples: i
 
     Returns
     -------
-    (H, W, 3) uint8 image. Needs Embree (``vpffd.render``) and Pillow.
+    (H, W, 3) uint8 image (captions only when they take at most a third of the
+    height). Needs Embree (``vpffd.render``) and Pillow.
     """
     _require_embree("render_subdivision_edit")
     try:
@@ -143,6 +144,8 @@ def render_subdivision_edit(sm, result, *, size=(1600, 480), up=None, samples: i
     n = len(panels)
     fs = max(10, int(round(0.03 * min(h, 1.2 * w / n))))
     cap_h = int(2.7 * fs)
+    if h < 3 * cap_h:  # a thumbnail: the panels alone (captions would cover most of it)
+        cap_h = 0
     pw, ph = w // n, h - cap_h
     if pw < 8 or ph < 8:
         raise InvalidInputError(f"render_subdivision_edit: {w} x {h} pixels is too small for {n} panels")
@@ -157,7 +160,7 @@ def render_subdivision_edit(sm, result, *, size=(1600, 480), up=None, samples: i
     draw = ImageDraw.Draw(pic)
     font, _ = _font(fs)
     small, _ = _font(max(9, int(round(0.8 * fs))))
-    for i, (title, numbers) in enumerate(captions):
+    for i, (title, numbers) in enumerate(captions if cap_h else ()):
         cx = x0 + i * pw + pw // 2
         draw.text((cx, int(0.25 * fs)), str(title), fill=(25, 25, 25), font=font, anchor="ma")
         draw.text((cx, int(1.45 * fs)), str(numbers), fill=(95, 95, 95), font=small, anchor="ma")
