@@ -276,3 +276,20 @@ def test_demo_scene_captions_are_the_computed_numbers(tmp_path):
     ss.write_csv(s, tmp_path / "subdiv.csv")
     rows = (tmp_path / "subdiv.csv").read_text().splitlines()
     assert len(rows) == 1 + s.frames and rows[0].startswith("frame,pull")
+
+
+@needs_osd
+def test_run_demo_includes_the_subdivision_scene(tmp_path):
+    import io
+
+    from vpffd.cli.demo import run_demo
+    stream = io.StringIO()
+    r = run_demo(out=tmp_path, quick=True, render=False, stream=stream, motion=False, multires=False)
+    text = stream.getvalue()
+    assert "Displaced subdivision surface: bumpy body" in text
+    s = r["subdiv_scene"]
+    assert s is not None and tmp_path / "subdiv.csv" in r["files"]
+    rows = (tmp_path / "subdiv.csv").read_text().splitlines()
+    assert len(rows) == 1 + s.frames
+    assert run_demo(out=tmp_path / "no", quick=True, render=False, stream=io.StringIO(), motion=False,
+                    multires=False, subdiv=False)["subdiv_scene"] is None
