@@ -161,6 +161,27 @@ def test_help_lists_the_options(capsys):
         assert opt in out
 
 
+@needs_osd
+@needs_io
+def test_open_mesh_needs_max_unresolved_and_reports_the_count(tmp_path, capsys):
+    # The sphere without its top cap: vertices near the rim have no exact foot point.
+    keep = BALL.vertices[BALL.faces].mean(axis=1)[:, 2] < 0.6
+    used = np.unique(BALL.faces[keep])
+    remap = np.full(BALL.n_vertices, -1)
+    remap[used] = np.arange(len(used))
+    src = _write_obj(tmp_path / "open.obj", vpffd.Mesh(BALL.vertices[used], remap[BALL.faces[keep]].astype(np.int32)))
+    out = tmp_path / "o.obj"
+    assert _status(["subdiv", str(src), str(out), "--control-vertices", "80"]) == 1
+    line = _one_line_error(capsys.readouterr().err, "vpffd subdiv")
+    m = re.search(r"(\d+) of \d+ fine vertices have no exact foot point", line)
+    assert m and "--max-unresolved" in line and not out.exists()
+    n = int(m.group(1))
+    assert main(["subdiv", str(src), str(out), "--control-vertices", "80", "--max-unresolved", str(n)]) == 0
+    text = capsys.readouterr().out
+    assert f"unresolved foot points: {n} (first:" in text and "not closed" in text
+    assert _status(["subdiv", str(src), str(out), "--control-vertices", "80", "--max-unresolved", str(n - 1)]) == 1
+
+
 @pytest.mark.parametrize("extra, fragment", [
     (["--control-vertices", "0"], "--control-vertices"),
     (["--control-vertices", "3"], "--control-vertices"),

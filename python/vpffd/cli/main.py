@@ -364,8 +364,14 @@ def _subdiv(args, bar) -> int:
                          f"{e['nonmanifold_edges']} non-manifold, {e['misoriented_edges']} misoriented edges), "
                          f"so it has no volume to keep; drop --preserve-volume")
     bar(1, 4, "decomposing")
-    sm = SubdivisionMultires(mesh, scheme=args.scheme, control_vertices=args.control_vertices,
-                             fairness=args.fairness, iterations=args.iterations, max_unresolved=args.max_unresolved)
+    try:
+        sm = SubdivisionMultires(mesh, scheme=args.scheme, control_vertices=args.control_vertices,
+                                 fairness=args.fairness, iterations=args.iterations,
+                                 max_unresolved=args.max_unresolved)
+    except ValueError as e:
+        if "max_unresolved" not in str(e):
+            raise
+        raise ValueError(f"{e} (on the command line: --max-unresolved N)") from None
     C, edit = sm.control_points, None
     if args.drag:
         edit = drag(sm, [a for a, _ in args.drag], [b for _, b in args.drag])
