@@ -38,6 +38,7 @@ from .multires import Multires, MultiresDeformer, MultiresResult
 from .rbf import RBFDeformer
 from . import subdivision
 from .subdivision import SubdivisionAffineGroup, SubdivisionMultires
+from . import subdivision_edits
 from .mesh import Mesh
 from . import check, normals, io, folds, local_weights
 from .folds import FoldError, FoldReport, FoldWarning, check_folds
@@ -46,7 +47,7 @@ from .io import load_mesh, save_mesh
 from .normals import deformed_normals, vertex_normals
 # Pictures: vpffd.camera, picking, colormap, rendering and comparison are the
 # modules; their main names are re-exported here (vpffd.render is the function).
-from . import camera, picking, colormap, rendering, comparison
+from . import camera, picking, colormap, rendering, comparison, subdivision_picture
 from .camera import Camera
 from .picking import Hit, Scene, pick, pick_pixel
 from .rendering import render
@@ -66,5 +67,5 @@ __all__ = [
     "render_comparison", "local_volume_change", "guess_up_axis",
     "folds", "check_folds", "FoldReport", "FoldError", "FoldWarning", "local_weights",
     "Multires", "MultiresDeformer", "MultiresResult", "RBFDeformer",
-    "subdivision", "SubdivisionMultires", "SubdivisionAffineGroup",
+    "subdivision", "SubdivisionMultires", "SubdivisionAffineGroup", "subdivision_edits", "subdivision_picture",
 ]

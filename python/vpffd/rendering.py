@@ -63,6 +63,19 @@ def lattice_lines(shape) -> np.ndarray:
     return np.ascontiguousarray(np.concatenate(pairs), dtype=np.int32)
 
 
+def _net(net, name):
+    """(points (n, 3) float64, edges (m, 2) int32) of a control net, checked."""
+    if not (isinstance(net, (tuple, list)) and len(net) == 2):
+        raise TypeError(f"{name}: expected a (points, edges) pair, got {type(net).__name__}")
+    P = _arrays.points(net[0], f"{name} points")
+    E = np.asarray(net[1])
+    if E.ndim != 2 or E.shape[1] != 2 or not np.issubdtype(E.dtype, np.integer):
+        raise InvalidInputError(f"{name} edges: expected an (m, 2) integer array, got {E.dtype} of shape {E.shape}")
+    if E.size and (E.min() < 0 or E.max() >= len(P)):
+        raise InvalidInputError(f"{name} edges: indices must be in [0, {len(P)}), got {int(E.min())}..{int(E.max())}")
+    return P, np.ascontiguousarray(E, dtype=np.int32)
+
+
 def _rgb(raw, a, name):
     """RGB in [0, 1] from ``a`` (float64, validated) of the array ``raw`` given
     by the caller. The dtype decides the scale, never the values: integers
@@ -94,7 +107,7 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
            cmap=None, vmin=None, vmax=None, lines: bool = True, points: bool = True, point_radius: float = 3.0,
            line_color=(0.85, 0.25, 0.15), point_color=(0.1, 0.2, 0.8), hidden_alpha: float = 0.25,
            line_alpha: float = 1.0, line_width: float = 1.0, adaptive: bool = True, return_depth: bool = False,
-           folds=None, rest_vertices=None):
+           folds=None, rest_vertices=None, net=None):
     """Ray-cast image of a mesh with smooth shading, optionally with a lattice.
 
     Parameters
@@ -143,6 +156,10 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
         those in undecided cells in amber, over ``colors``: a ``vpffd.check_folds``
         report with ``rest_vertices`` (V, 3), the rest positions of the mesh's
         vertices, or the status per vertex (-1, 0, 1) of ``vpffd.folds.vertex_folds``.
+    net : (points (n, 3), edges (m, 2) int), optional
+        a control mesh drawn as points joined by lines, like a lattice (the
+        ``lines``, ``points`` and colour arguments apply), e.g. a subdivision
+        surface's control net; not with ``lattice`` or ``control_points``.
 
     Returns
     -------
@@ -163,7 +180,11 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
     if not 0 < float(line_width) <= 64:
         raise InvalidInputError(f"render: line_width must be in (0, 64] pixels, got {line_width!r}")
     cp = None
-    if control_points is not None:
+    if net is not None:
+        if lattice is not None or control_points is not None:
+            raise InvalidInputError("render: give net or a lattice (control_points), not both")
+        net_points, net_edges = _net(net, "render: net")
+    elif control_points is not None:
         cp = np.asarray(control_points, dtype=np.float64)
     elif lattice is not None:
         if not hasattr(lattice, "control_points"):
@@ -175,6 +196,8 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
         raise InvalidInputError(f"render: control_points must have shape (nu, nv, nw, 3), got {cp.shape}")
     if cp is not None and not np.isfinite(cp).all():
         raise InvalidInputError("render: control points contain NaN or Inf")
+    if net is not None:
+        cp = net_points  # framed and drawn as the lattice's points are
     if camera is None:
         pts = m.vertices if cp is None else np.concatenate([m.vertices, cp.reshape(-1, 3)])
         camera = Camera.framing(pts, size=(w, h))
@@ -192,7 +215,8 @@ def render(mesh, camera=None, lattice=None, size=(800, 600), colors=None, contro
     P = L = None
     if cp is not None:
         P = np.ascontiguousarray(cp.reshape(-1, 3))
-        L = lattice_lines(cp.shape[:3]) if lines else np.zeros((0, 2), np.int32)
+        edges = net_edges if net is not None else lattice_lines(cp.shape[:3])
+        L = edges if lines else np.zeros((0, 2), np.int32)
     # One image: a quick BVH build pays more than a better one.
     rs = scene._s if scene is not None else _core.RayScene(m.vertices, m.faces, True)
     image, depth = rs.render(camera.eye, camera.target, camera.up, camera.fov, w, h, int(samples),

@@ -8,8 +8,9 @@ Writes, under ``out``:
 - ``<scene>.gif``: the same frames as an animated GIF;
 - ``<scene>_keyframes.png``: the paper's layout, one row per variant;
 - ``volume.png``: volume over time (matplotlib), and ``volume.csv``;
-- the moving-object scenes (``vpffd.cli.motion``) and the multiresolution scene
-  (``vpffd.cli.multires_scene``): their GIFs, frames and CSV files;
+- the moving-object scenes (``vpffd.cli.motion``), the multiresolution scene
+  (``vpffd.cli.multires_scene``) and the displaced subdivision surface scene
+  (``vpffd.cli.subdiv_scene``): their GIFs, frames and CSV files;
 
 and prints the volume change of every frame.
 """
@@ -285,7 +286,8 @@ def _csv(scenes, path: Path) -> None:
 
 
 def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320, 240), stream=None,
-             progress=None, backend: str = "serial", motion: bool = True, multires: bool = True) -> dict:
+             progress=None, backend: str = "serial", motion: bool = True, multires: bool = True,
+             subdiv: bool = True) -> dict:
     """Runs both animations with every variant, then the moving-object scenes
     (``vpffd.cli.motion``: a shoal round a ring, walkers on a Moebius band) and the
     multiresolution scene (``vpffd.cli.multires_scene``: a bumpy body bent, FFD of
@@ -315,13 +317,18 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
         also run the moving-object scenes (GIFs, ``motion_volume.png``/``.csv``).
     multires : bool
         also run the multiresolution scene (``multires.gif``, ``multires.csv``).
+    subdiv : bool
+        also run the displaced subdivision surface scene (``subdiv.png``,
+        ``subdiv.gif``, ``subdiv.csv``; skipped with a note when this build has no
+        OpenSubdiv).
 
     Returns
     -------
     dict
         ``scenes`` (list of Scene with their results), ``motion_scenes`` (list of
         ``vpffd.cli.motion.MotionScene``), ``multires_scene`` (the
-        ``vpffd.cli.multires_scene.MultiresScene`` or None), ``files`` (paths written),
+        ``vpffd.cli.multires_scene.MultiresScene`` or None), ``subdiv_scene`` (the
+        ``vpffd.cli.subdiv_scene.SubdivScene`` or None), ``files`` (paths written),
         ``seconds``, ``rendered`` (bool).
     """
     stream = sys.stdout if stream is None else stream
@@ -393,6 +400,24 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
                 files += ms.render(layered, out, size, progress=b)
         ms.write_csv(layered, out / "multires.csv")
         files.append(out / "multires.csv")
+    displaced = None
+    if subdiv:
+        from ..subdivision import available as has_subdiv
+        print("\nDisplaced subdivision surfaces (GPU multiresolution paper, section 5): control points move, the "
+              "details follow the limit surface's normals", file=stream)
+        if not has_subdiv():
+            print("  skipped: this build has no subdivision surfaces (install libosd-dev and rebuild)", file=stream)
+        else:
+            from . import subdiv_scene as ss
+            displaced = ss.pulled_body(quick)
+            with bar(progress, f"{displaced.key}: deforming", displaced.frames) as b:
+                ss.run(displaced, progress=b)
+            ss.table(displaced, stream)
+            if can_render:
+                with bar(progress, f"{displaced.key}: rendering", displaced.frames) as b:
+                    files += ss.render(displaced, out, size, progress=b)
+            ss.write_csv(displaced, out / "subdiv.csv")
+            files.append(out / "subdiv.csv")
     secs = time.perf_counter() - t0
     print("", file=stream)
     if not can_render:
@@ -412,12 +437,17 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
         if layered is not None:
             print(f"multiresolution: {out / 'multires.gif'} (FFD of the fine mesh | multiresolution | angle between "
                   f"its approximate and exact normals)", file=stream)
+        if displaced is not None:
+            print(f"subdivision surface: {out / 'subdiv.png'}, {out / 'subdiv.gif'} (control mesh over the limit "
+                  f"surface, rest | edited | detailed result | approximate normal error)", file=stream)
     plot = (f"volume plot: {out / 'volume.png'}" if has_mpl else
             'no volume plot: matplotlib is not installed (pip install "vpffd[demo]")')
     if moving and has_mpl:
         plot += f", {out / 'motion_volume.png'}"
     numbers = [out / "volume.csv"] + ([out / "motion_volume.csv"] if moving else []) + \
-        ([out / "multires.csv"] if layered is not None else [])
+        ([out / "multires.csv"] if layered is not None else []) + \
+        ([out / "subdiv.csv"] if displaced is not None else [])
     print(f"{plot}, numbers: {', '.join(map(str, numbers))}  ({secs:.1f} s)", file=stream)
-    return dict(scenes=scenes, motion_scenes=moving, multires_scene=layered, files=files, seconds=secs,
+    return dict(scenes=scenes, motion_scenes=moving, multires_scene=layered, subdiv_scene=displaced, files=files,
+                seconds=secs,
                 rendered=can_render)

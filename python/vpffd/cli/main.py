@@ -1,4 +1,4 @@
-"""The ``vpffd`` command: ``vpffd demo | deform | info | bench | devices`` (``vpffd CMD --help``).
+"""The ``vpffd`` command: ``vpffd demo | deform | subdiv | info | bench | devices`` (``vpffd CMD --help``).
 
 Errors end the command with one line on stderr, ``vpffd CMD: error: ...``, and
 exit status 2 for bad arguments or 1 for anything else (bad or missing files,
@@ -169,31 +169,11 @@ def _cmd_deform(args) -> int:
         args.axis = args.up
     if args.axis is not None:
         _default_toward(args)
-    ext = _extension(args.output)
-    from ..io import FORMATS as formats  # empty without OpenMesh
-    if formats and ext not in formats:
-        raise _UsageError(f"OUT: unknown mesh format {ext or '(none)'!r} of {args.output!r}; "
-                          f"expected one of {', '.join('.' + f for f in formats)}")
     if args.multires is not None and not args.multires > 0:
         raise _UsageError(f"--multires: expected a positive smoothing, got {args.multires}")
     if args.multires is not None and (args.drag or args.render or args.backend == "vulkan"):
         raise _UsageError("--multires: --drag, --render and --backend vulkan are not supported with it yet")
-    if args.render and not args.render.lower().endswith(".png"):
-        raise _UsageError(f"--render: expected a .png file name, got {args.render!r}")
-    if args.size is not None and not args.render:
-        raise _UsageError("--size: only applies to the --render picture; add --render PNG or drop --size")
-    if args.size is None:
-        args.size = (1600, 600)
-    for path in (args.output, args.render):
-        out_dir = os.path.dirname(os.path.abspath(path)) if path else None
-        if out_dir and not os.path.isdir(out_dir):
-            raise FileNotFoundError(2, "output folder does not exist", out_dir)
-    if not args.in_place and _same_file(args.input, args.output):
-        raise _UsageError(f"OUT is IN ({args.output!r}): that would replace the input mesh; give another "
-                          "OUT, or --in-place to replace IN on purpose (it is replaced only once the new file "
-                          "is complete)")
-    if args.render and _same_file(args.input, args.render):
-        raise _UsageError(f"--render: {args.render!r} is the input mesh file")
+    _check_outputs(args, (1600, 600))
 
     # stages: read, embed, deform, write (the bar shows only past one second)
     bar = Progress("deform", 4)
@@ -314,6 +294,136 @@ def _deform_multires(args, mesh, lat, P, preserve, done, bar) -> int:
     return 0
 
 
+def _nonnegative_int(text: str):
+    try:
+        n = int(text)
+    except ValueError:
+        n = -1
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return n
+
+
+def _check_outputs(args, default_size) -> None:
+    """The checks of OUT, --render and --size that ``deform`` and ``subdiv`` share,
+    all before any work (a bad value leaves OUT untouched)."""
+    ext = _extension(args.output)
+    from ..io import FORMATS as formats  # empty without OpenMesh
+    if formats and ext not in formats:
+        raise _UsageError(f"OUT: unknown mesh format {ext or '(none)'!r} of {args.output!r}; "
+                          f"expected one of {', '.join('.' + f for f in formats)}")
+    if args.render and not args.render.lower().endswith(".png"):
+        raise _UsageError(f"--render: expected a .png file name, got {args.render!r}")
+    if args.size is not None and not args.render:
+        raise _UsageError("--size: only applies to the --render picture; add --render PNG or drop --size")
+    if args.size is None:
+        args.size = default_size
+    for path in (args.output, args.render):
+        out_dir = os.path.dirname(os.path.abspath(path)) if path else None
+        if out_dir and not os.path.isdir(out_dir):
+            raise FileNotFoundError(2, "output folder does not exist", out_dir)
+    if not args.in_place and _same_file(args.input, args.output):
+        raise _UsageError(f"OUT is IN ({args.output!r}): that would replace the input mesh; give another "
+                          "OUT, or --in-place to replace IN on purpose (it is replaced only once the new file "
+                          "is complete)")
+    if args.render and _same_file(args.input, args.render):
+        raise _UsageError(f"--render: {args.render!r} is the input mesh file")
+
+
+def _cmd_subdiv(args) -> int:
+    if args.control_vertices is not None and args.control_vertices < 4:
+        raise _UsageError(f"--control-vertices: expected at least 4 (a tetrahedron), got {args.control_vertices}")
+    if args.fairness < 0:
+        raise _UsageError(f"--fairness: expected a weight >= 0, got {args.fairness}")
+    _check_outputs(args, (1600, 480))
+    from ..subdivision import _require
+    _require("vpffd subdiv")  # before reading a large file
+    # stages: read, decompose, deform, write
+    bar = Progress("subdiv", 4)
+    try:
+        return _subdiv(args, bar)
+    finally:
+        bar.close()
+
+
+def _subdiv(args, bar) -> int:
+    """``vpffd subdiv``: the mesh as a displaced subdivision surface (paper 002, §5),
+    control points moved by the drags, the detailed mesh rebuilt and written."""
+    import numpy as np
+
+    from ..io import save_mesh
+    from ..mesh import Mesh
+    from ..subdivision import SubdivisionMultires
+    from ..subdivision_edits import drag
+    from ..subdivision_picture import normal_error_deg
+
+    mesh = _load(args.input)
+    if args.preserve_volume and not mesh.is_closed:
+        e = mesh.edge_report()
+        raise ValueError(f"{args.input} is not a closed mesh ({e['boundary_edges']} boundary, "
+                         f"{e['nonmanifold_edges']} non-manifold, {e['misoriented_edges']} misoriented edges), "
+                         f"so it has no volume to keep; drop --preserve-volume")
+    bar(1, 4, "decomposing")
+    try:
+        sm = SubdivisionMultires(mesh, scheme=args.scheme, control_vertices=args.control_vertices,
+                                 fairness=args.fairness, iterations=args.iterations,
+                                 max_unresolved=args.max_unresolved)
+    except ValueError as e:
+        if "max_unresolved" not in str(e):
+            raise
+        raise ValueError(f"{e} (on the command line: --max-unresolved N)") from None
+    C, edit = sm.control_points, None
+    if args.drag:
+        edit = drag(sm, [a for a, _ in args.drag], [b for _, b in args.drag])
+        C = edit.control_points
+    bar(2, 4, "deforming")
+    t0 = time.perf_counter()
+    r = sm.deform(C, preserve_volume=args.preserve_volume)
+    ms = 1e3 * (time.perf_counter() - t0)
+    bar(3, 4, "writing")
+    save_mesh(args.output, Mesh(r.vertices, mesh.faces))
+    bar(4, 4)
+    bar.close()
+    diag = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
+    scheme = {"loop": "Loop", "catmark": "Catmull-Clark"}[args.scheme]
+    print(f"{args.input}: {mesh.n_vertices:,} vertices, {mesh.n_faces:,} faces; {scheme} control mesh of "
+          f"{sm.n_control:,} points (decimated), {args.iterations} fit round{'s' * (args.iterations != 1)}")
+    print(f"  fit RMS |p - S|: {sm.rms_initial:.4g} before, {sm.rms_final:.4g} after (bounding-box diagonal "
+          f"{diag:.4g}); decomposed in {sm.seconds:.2f} s")
+    n_bad = len(sm.unresolved)
+    first = ", ".join(str(int(i)) for i in sm.unresolved[:5])
+    print(f"  unresolved foot points: {n_bad}" + (f" (first: {first}; they keep their nearest point)" if n_bad
+                                                   else " (every foot point exact)"))
+    if edit is not None:
+        reach = np.linalg.norm(r.vertices[edit.vertices] - np.array([b for _, b in args.drag]), axis=1)
+        print(f"  {len(args.drag)} dragged point{'s' * (len(args.drag) > 1)} (snapped to vertices up to "
+              f"{edit.snap_distances.max():.3g} away) moved {len(edit.moved)} control points; the dragged "
+              f"vertices are within {reach.max():.3g} of their targets")
+    else:
+        print("  no edit (--drag none): the identity frame")
+    if mesh.is_closed:
+        kept = (f"; base volume kept (relative error {r.base_volume_error:+.1e})" if args.preserve_volume
+                else " (not preserved: --preserve-volume keeps the base's volume)")
+        print(f"  volume: rest {r.rest_volume:.6g}, result {r.volume:.6g} ({100 * r.volume_error:+.3f} %){kept}")
+    else:
+        print("  the mesh is not closed: no volume")
+    a = normal_error_deg(r, mesh.faces)
+    print(f"  approximate normals against the deformed mesh's: mean {np.nanmean(a):.3f} deg, max "
+          f"{np.nanmax(a):.2f} deg")
+    print(f"  frame {ms:.1f} ms ({sm.bytes_per_vertex:.0f} bytes per vertex); wrote {args.output}")
+    if args.render:
+        from .. import save_png
+        from ..subdivision_picture import render_subdivision_edit
+        up = args.up
+        if up is None:
+            from ..comparison import guess_up_axis
+            up, why = guess_up_axis(mesh, args.input)
+            print(f"  up axis {up} (guessed: {why}; --up to change)")
+        save_png(args.render, render_subdivision_edit(sm, r, size=args.size, up=up, angles=a))
+        print(f"  picture: {args.render}")
+    return 0
+
+
 def _cmd_info(args) -> int:
     mesh = _load(args.mesh)
     report = mesh.check()
@@ -379,8 +489,10 @@ def build_parser() -> argparse.ArgumentParser:
                        "built-in meshes, plain FFD against the volume-preserving FFD restricted to xy, z and xyz; "
                        "prints the volume change of every frame and writes PNG frames, animated GIFs, key-frame "
                        "sheets, volume.png and volume.csv. Then objects moving through a fixed deformation (a shoal "
-                       "round a ring, walkers on a Moebius band) and a multiresolution edit (a bumpy body bent: "
-                       "FFD of the fine mesh against base + details, with the normal error).")
+                       "round a ring, walkers on a Moebius band), a multiresolution edit (a bumpy body bent: "
+                       "FFD of the fine mesh against base + details, with the normal error) and a displaced "
+                       "subdivision surface edit (control points of a detailed body pulled, with the control mesh, "
+                       "the limit surface and the normal error).")
     p.add_argument("--out", default="demo_out", metavar="DIR", help="output folder (created)")
     p.add_argument("--size", type=_size, default=(320, 240), metavar="WxH",
                    help="pixels of one panel (default: 320x240)")
@@ -432,6 +544,39 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the lattice in the --render picture: hidden, thin translucent lines, or lines and "
                         "control points")
     p.set_defaults(func=_cmd_deform)
+
+    p = sub.add_parser("subdiv", formatter_class=fmt, help="edit a mesh as a displaced subdivision surface",
+                       description="Represents a detailed mesh as the limit surface of a coarse control mesh "
+                       "(Loop or Catmull-Clark, decimated from the mesh and fitted) plus a normal displacement "
+                       "per vertex (paper 002, section 5), moves control points so that the dragged points "
+                       "follow, rebuilds the details on the deformed surface and writes the result.")
+    p.add_argument("input", metavar="IN", help="mesh file to read (the formats of vpffd.load_mesh)")
+    p.add_argument("output", metavar="OUT", help="mesh file to write; the extension picks the format "
+                   "(written to a temporary file first: a failed write leaves an existing OUT as it was)")
+    p.add_argument("--in-place", action="store_true", help="allow OUT to be IN (the input file is replaced)")
+    p.add_argument("--control-vertices", type=_positive_int, metavar="N",
+                   help="points of the control mesh (default: 1 %% of the vertices, at least 64)")
+    p.add_argument("--scheme", choices=["loop", "catmark"], default="loop",
+                   help="subdivision scheme of the limit surface: Loop or Catmull-Clark")
+    p.add_argument("--iterations", type=_nonnegative_int, default=2,
+                   help="fit rounds (least squares and foot-point updates)")
+    p.add_argument("--fairness", type=_finite, default=1e-3, help="weight of the fit's fairness term")
+    p.add_argument("--max-unresolved", type=_nonnegative_int, default=0,
+                   help="vertices allowed without an exact foot point (open meshes need some near the rim)")
+    p.add_argument("--drag", type=_drag, action="append", metavar="X,Y,Z:TX,TY,TZ",
+                   help="move the surface at the vertex nearest X,Y,Z to TX,TY,TZ: the least change of the "
+                        "control points that moves that vertex's limit point by the offset (repeatable)")
+    p.add_argument("--preserve-volume", action="store_true",
+                   help="correct the control points so that the base surface keeps its volume exactly "
+                        "(closed meshes)")
+    p.add_argument("--render", metavar="PNG",
+                   help="also write a picture: control mesh over the limit surface, before and after, the "
+                        "detailed result and its approximate-normal error as colour")
+    p.add_argument("--size", type=_size, default=None, metavar="WxH",
+                   help="--render picture size (default: 1600x480; only with --render)")
+    p.add_argument("--up", choices=["x", "y", "z"], default=None,
+                   help="the model's up axis in the picture (default: guessed and printed)")
+    p.set_defaults(func=_cmd_subdiv)
 
     p = sub.add_parser("info", formatter_class=fmt, help="check a mesh file (closed, oriented, volume, ...)",
                        description="Reads a mesh file and reports what vpffd needs of it: closed, consistently "
