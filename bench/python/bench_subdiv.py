@@ -172,8 +172,7 @@ def main():
         "points rotated and translated. A group frame copies the held frame of every vertex and rebuilds the "
         "vertices the group reaches; a full frame rebuilds every vertex from all control points, whatever "
         "moved. On the large meshes a group frame's time is mostly the copy of the held frame (positions, "
-        "normals and base points, 72 bytes per vertex), not the rebuild. The paper (Pentium 4, 3.0 GHz, "
-        "2005) gives 9.7 fps on the CPU and 55.6 on its GPU for 10 control points of a 667K-triangle model.")
+        "normals and base points, 72 bytes per vertex), not the rebuild.")
     out("")
     for n in notes:
         out(n)
