@@ -9,7 +9,9 @@ Writes, under ``out``:
 - ``<scene>_keyframes.png``: the paper's layout, one row per variant;
 - ``volume.png``: volume over time (matplotlib), and ``volume.csv``;
 - the moving-object scenes (``vpffd.cli.motion``) and the multiresolution scene
-  (``vpffd.cli.multires_scene``): their GIFs, frames and CSV files;
+  (``vpffd.cli.multires_scene``): their GIFs, frames and CSV files, and
+  ``multires_details.png`` (a bumpy ball squashed: FFD of the fine mesh against the
+  multiresolution edit, with the measured change of the details);
 
 and prints the volume change of every frame.
 """
@@ -314,7 +316,8 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
     motion : bool
         also run the moving-object scenes (GIFs, ``motion_volume.png``/``.csv``).
     multires : bool
-        also run the multiresolution scene (``multires.gif``, ``multires.csv``).
+        also run the multiresolution scenes (``multires.gif``, ``multires.csv``,
+        ``multires_details.png``).
 
     Returns
     -------
@@ -393,6 +396,11 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
                 files += ms.render(layered, out, size, progress=b)
         ms.write_csv(layered, out / "multires.csv")
         files.append(out / "multires.csv")
+        details = ms.detail_scene(quick, backend=backend)
+        ms.detail_table(details, stream)
+        if can_render:
+            files.append(ms.write_detail_picture(details, out / "multires_details.png",
+                                                 (max(3 * size[0], 900), max(size[1] + 200, 360))))
     secs = time.perf_counter() - t0
     print("", file=stream)
     if not can_render:
@@ -411,7 +419,8 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
                   f"(plain FFD | each object's volume kept; objects coloured by their volume change)", file=stream)
         if layered is not None:
             print(f"multiresolution: {out / 'multires.gif'} (FFD of the fine mesh | multiresolution | angle between "
-                  f"its approximate and exact normals)", file=stream)
+                  f"its approximate and exact normals), {out / 'multires_details.png'} (what each does to the "
+                  "details, measured)", file=stream)
     plot = (f"volume plot: {out / 'volume.png'}" if has_mpl else
             'no volume plot: matplotlib is not installed (pip install "vpffd[demo]")')
     if moving and has_mpl:
