@@ -318,7 +318,10 @@ class MultiresDeformer:
     multires : Multires
     lattice : Lattice
         its box must contain the base mesh (``outside``) — a lattice around the
-        fine mesh does, since fairing moves vertices inwards.
+        fine mesh does, since fairing moves vertices inwards. Periodic axes work as
+        in ``Deformer`` on the CPU: foot points are wrapped into the box and the
+        seam's translation ("shift") or mirror ("twist") applies to the map and its
+        Jacobian there.
     backend : {"auto", "openmp", "serial", "vulkan"}
         "vulkan": every part of a frame runs on the device: the volume correction
         (``Deformer(..., backend="vulkan")`` of the base or the fine mesh, see

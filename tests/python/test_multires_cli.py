@@ -68,13 +68,14 @@ def test_multires_vulkan(bumpy, tmp_path, capsys, monkeypatch):
     if dev is None:
         pytest.skip("no Vulkan backend in this build or no suitable device")
     monkeypatch.setenv("VPFFD_VULKAN_DEVICE", str(dev["index"]))
-    for name, backend in (("g.ply", "vulkan"), ("c.ply", "serial")):
-        assert main(["deform", str(bumpy), str(tmp_path / name), "--multires", "5", "--twist", "40",
-                     "--lattice", "6", "--up", "z", "--backend", backend]) == 0
-    assert "vulkan backend" in capsys.readouterr().out
-    g, c = vpffd.load_mesh(tmp_path / "g.ply").vertices, vpffd.load_mesh(tmp_path / "c.ply").vertices
-    # The device frame against the CPU one: a few 1e-6 of the diagonal (gpu_bounds.py), float32 files.
-    assert np.abs(g - c).max() < 1e-4 * np.linalg.norm(np.ptp(c, axis=0))
+    for extra in ([], ["--drag=0,0,1:0.2,0.1,1.3"]):
+        for name, backend in (("g.ply", "vulkan"), ("c.ply", "serial")):
+            assert main(["deform", str(bumpy), str(tmp_path / name), "--multires", "5", "--twist", "40",
+                         "--lattice", "6", "--up", "z", "--backend", backend, *extra]) == 0
+        assert "vulkan backend" in capsys.readouterr().out
+        g, c = vpffd.load_mesh(tmp_path / "g.ply").vertices, vpffd.load_mesh(tmp_path / "c.ply").vertices
+        # The device frame against the CPU one: a few 1e-6 of the diagonal (gpu_bounds.py), float32 files.
+        assert np.abs(g - c).max() < 1e-4 * np.linalg.norm(np.ptp(c, axis=0)), extra
 
 
 @needs_io
