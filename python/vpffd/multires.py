@@ -532,7 +532,8 @@ class MultiresDeformer:
             d = self._base if volume == "base" or not preserve_volume else self._fine_deformer()
             rc = d.deform(P, preserve_volume=bool(preserve_volume), axes=axes, weights=weights, fixed=fixed,
                           rounds=rounds, constraints=constraints)
-            P, cerr, preserve_volume = np.ascontiguousarray(rc.control_points.reshape(-1, 3)), rc.constraint_error, False
+            P, cerr = np.ascontiguousarray(rc.control_points.reshape(-1, 3)), rc.constraint_error
+            preserve_volume = False  # those control points carry the correction already
         if self._vk is not None:
             r = self._deform_vulkan(P, preserve_volume, axes, volume, normals, weights, fixed, rounds, out,
                                     kernel_normals, out_normals, cerr)
