@@ -35,6 +35,7 @@ from .deformer import Deformer, DeformResult, available_backends, vulkan_devices
 from .edits import bend, scale, squash, taper, twist
 from .lattice import Lattice
 from .multires import Multires, MultiresDeformer, MultiresResult
+from .details import DetailChange, detail_change
 from .rbf import RBFDeformer
 from . import subdivision
 from .subdivision import SubdivisionAffineGroup, SubdivisionMultires
@@ -66,6 +67,6 @@ __all__ = [
     "pick", "pick_pixel", "vertex_normals", "deformed_normals", "normals", "io",
     "render_comparison", "local_volume_change", "guess_up_axis",
     "folds", "check_folds", "FoldReport", "FoldError", "FoldWarning", "local_weights",
-    "Multires", "MultiresDeformer", "MultiresResult", "RBFDeformer",
+    "Multires", "MultiresDeformer", "MultiresResult", "DetailChange", "detail_change", "RBFDeformer",
     "subdivision", "SubdivisionMultires", "SubdivisionAffineGroup", "subdivision_edits", "subdivision_picture",
 ]

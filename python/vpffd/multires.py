@@ -229,6 +229,11 @@ class MultiresResult:
     base_volume, base_rest_volume, base_volume_error : float
         the same for the base mesh.
     volume_mode, normals_mode, backend : str
+    faces : (F, 3) int32 or None
+        the fine mesh's faces (shared by ``vertices`` and ``base_vertices``).
+    constraint_error : float
+        with ``constraints``: the largest distance (world units) between a
+        constraint's target and the lattice map's image of its source; NaN without.
     """
     vertices: np.ndarray
     normals: np.ndarray
@@ -243,9 +248,22 @@ class MultiresResult:
     volume_mode: str
     normals_mode: str
     backend: str
+    faces: object = None
+    constraint_error: float = float("nan")
+
+    def to_trimesh(self, base: bool = False):
+        """The rebuilt fine mesh (or, ``base=True``, the deformed base) as a
+        ``trimesh.Trimesh``: vertex order kept, the fine faces; needs trimesh."""
+        if self.faces is None:
+            raise InvalidInputError("to_trimesh: this result carries no faces")
+        if not isinstance(base, (bool, np.bool_)):
+            raise TypeError(f"to_trimesh: base: expected a bool, got {type(base).__name__}")
+        from .interop import to_trimesh
+        return to_trimesh(self.base_vertices if base else self.vertices, self.faces)
 
 
-def _result(mr: Multires, X, N, B, normals, control_points, volume_mode, backend, out_normals=None) -> MultiresResult:
+def _result(mr: Multires, X, N, B, normals, control_points, volume_mode, backend, out_normals=None,
+            constraint_error=float("nan")) -> MultiresResult:
     F = mr.mesh.faces
     if normals == "exact":
         N = _core.vertex_normals(X, F)
@@ -257,7 +275,7 @@ def _result(mr: Multires, X, N, B, normals, control_points, volume_mode, backend
     return MultiresResult(vertices=X, normals=N, base_vertices=B, control_points=control_points, volume=vol,
                           rest_volume=rest, volume_error=_relative(vol, rest), base_volume=bvol,
                           base_rest_volume=brest, base_volume_error=_relative(bvol, brest), volume_mode=volume_mode,
-                          normals_mode=normals, backend=backend)
+                          normals_mode=normals, backend=backend, faces=F, constraint_error=constraint_error)
 
 
 def _check_normals(normals):
@@ -300,7 +318,10 @@ class MultiresDeformer:
     multires : Multires
     lattice : Lattice
         its box must contain the base mesh (``outside``) — a lattice around the
-        fine mesh does, since fairing moves vertices inwards.
+        fine mesh does, since fairing moves vertices inwards. Periodic axes work as
+        in ``Deformer`` on the CPU: foot points are wrapped into the box and the
+        seam's translation ("shift") or mirror ("twist") applies to the map and its
+        Jacobian there.
     backend : {"auto", "openmp", "serial", "vulkan"}
         "vulkan": every part of a frame runs on the device: the volume correction
         (``Deformer(..., backend="vulkan")`` of the base or the fine mesh, see
@@ -316,7 +337,8 @@ class MultiresDeformer:
         buffers (no host round trip) and the reconstruction dispatch. The deformed
         base (``base_vertices``) is the base Deformer's device FFD (with
         ``volume="fine"`` run in the same submission on the corrected control
-        points). Periodic lattices raise BackendUnavailableError, as does a build
+        points). Periodic lattices raise BackendUnavailableError (the device
+        dispatch has no seams; "auto" stays on the CPU for them), as does a build
         or machine without Vulkan.
         "auto" follows ``Deformer``'s rule on the fine mesh's size: a hardware GPU
         for meshes of ``vpffd.backends.AUTO_GPU_MIN_VERTICES`` vertices or more, or the
@@ -343,15 +365,15 @@ class MultiresDeformer:
         if not isinstance(backend, str):
             raise TypeError(f"backend: expected a string, got {type(backend).__name__}")
         precision = _requested_precision(gpu_precision)
-        if lattice.periodic:
-            if backend == "vulkan":
-                raise BackendUnavailableError(
-                    f"MultiresDeformer: backend 'vulkan': the lattice is periodic along {lattice.periodic!r}, "
-                    "which the device does not evaluate (and the multiresolution FFD map does not support on the "
-                    "CPU either); use a Deformer on the fine mesh")
-            raise InvalidInputError(f"MultiresDeformer: periodic lattices (periodic={lattice.periodic!r}) are not "
-                                    "supported by the multiresolution FFD map; use a Deformer on the fine mesh")
+        if lattice.periodic and backend == "vulkan":
+            raise BackendUnavailableError(
+                f"MultiresDeformer: backend 'vulkan': the lattice is periodic along {lattice.periodic!r}, and the "
+                "device's multiresolution dispatch has no seams; use backend='openmp' or 'serial' (the CPU "
+                "evaluates periodic lattices), or a Deformer on the fine mesh")
         resolved, threads_core, selector = _resolve_backend(backend, threads, device, multires.n_vertices)
+        if lattice.periodic and resolved == "vulkan":  # "auto" on a large mesh: the CPU has the seams
+            resolved, threads_core, selector = _resolve_backend("openmp" if _core.has_openmp() else "serial",
+                                                                threads)
         self._vk = None
         if resolved == "vulkan":
             try:
@@ -377,6 +399,7 @@ class MultiresDeformer:
         self._fine_lock = threading.Lock()
         self._spares = Spares()
         self._ffd = _core.MultiresFFD(multires._m, lattice._spec, self._threads) if self._vk is None else None
+        self._cpu_ffd = None  # "vulkan": foot_frames' CPU map
 
     @property
     def device(self):
@@ -407,6 +430,28 @@ class MultiresDeformer:
             return _core.VulkanMultires.frame_bytes_per_vertex
         return _core.MultiresFFD.frame_bytes_per_vertex
 
+    def foot_frames(self, control_points=None) -> tuple:
+        """The deformed base at the foot points for control points P (default the
+        lattice's): S'(t_i) = D(S(t_i)) (V, 3) world units and the unit base normals
+        N_S' = unit(J_D S_u x J_D S_v) (V, 3), on the CPU (the seams of a periodic
+        lattice included). A rebuilt vertex is S' + d_i N_S'; a plain FFD of the fine
+        mesh with the same P moves it elsewhere (``vpffd.detail_change``)."""
+        P = np.ascontiguousarray(self.lattice._control(control_points).reshape(-1, 3))
+        ffd = self._ffd
+        if ffd is None:  # "vulkan": the CPU map, built on first use
+            with self._fine_lock:
+                if self._cpu_ffd is None:
+                    self._cpu_ffd = _core.MultiresFFD(self.multires._m, self.lattice._spec, self._threads)
+                ffd = self._cpu_ffd
+        S, J = ffd.foot_values_jacobians(P, self._threads)
+        J = np.asarray(J).reshape(-1, 3, 3)
+        m = self.multires._m
+        su = np.einsum("irc,ic->ir", J, m.tangents_u)
+        sv = np.einsum("irc,ic->ir", J, m.tangents_v)
+        n = np.cross(su, sv)
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return np.asarray(S), np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+
     def _fine_deformer(self) -> Deformer:
         with self._fine_lock:  # frames on several threads build it once
             if self._fine is None:
@@ -419,7 +464,7 @@ class MultiresDeformer:
 
     def deform(self, control_points=None, preserve_volume: bool = True, axes: str = "xyz", volume: str = "base",
                normals: str = "approximate", weights=None, fixed=None, rounds: int = 1, out=None,
-               out_normals=None) -> MultiresResult:
+               out_normals=None, constraints=None) -> MultiresResult:
         """One frame.
 
         Parameters
@@ -447,6 +492,15 @@ class MultiresDeformer:
             the rebuilt vertices and their normals are written into these
             (C-contiguous, writable, no memory shared with the inputs; the same bits
             as without), and the result's ``vertices`` / ``normals`` are these arrays.
+        constraints : list of (source, target), optional
+            point constraints of ``Deformer.deform`` (a rest-space point, or a vertex
+            index of the mesh the correction runs on: the base's for
+            ``volume="base"``), solved with the volume correction (or alone with
+            ``preserve_volume=False``): the lattice map takes each source to its
+            target (``r.constraint_error``). The rebuilt fine surface follows its
+            base, so a fine vertex at a source lands near the target, off it by how
+            its detail turns. On "vulkan" the correction is a Deformer frame of its
+            own and the reconstruction a second submission.
         """
         if not isinstance(preserve_volume, (bool, np.bool_)):
             raise TypeError(f"preserve_volume: expected a bool, got {type(preserve_volume).__name__}")
@@ -471,9 +525,18 @@ class MultiresDeformer:
             raise InvalidInputError(
                 "MultiresDeformer.deform: the mesh does not bound a volume, so it cannot be preserved "
                 f"(pass preserve_volume=False):\n{self.multires.mesh.check()}")
+        cerr = float("nan")
+        if constraints is not None and len(constraints) > 0:
+            # The constraints go through the Deformer's own solve (with the volume
+            # correction when asked); its control points then drive the frame.
+            d = self._base if volume == "base" or not preserve_volume else self._fine_deformer()
+            rc = d.deform(P, preserve_volume=bool(preserve_volume), axes=axes, weights=weights, fixed=fixed,
+                          rounds=rounds, constraints=constraints)
+            P, cerr = np.ascontiguousarray(rc.control_points.reshape(-1, 3)), rc.constraint_error
+            preserve_volume = False  # those control points carry the correction already
         if self._vk is not None:
             r = self._deform_vulkan(P, preserve_volume, axes, volume, normals, weights, fixed, rounds, out,
-                                    kernel_normals, out_normals)
+                                    kernel_normals, out_normals, cerr)
             return self._keep_spares(r, given, normals)
         if preserve_volume:
             d = self._base if volume == "base" else self._fine_deformer()
@@ -485,7 +548,7 @@ class MultiresDeformer:
             B = self._base_ffd(Pc)
         X, N = self._ffd.deform(Pc, self._threads, out, kernel_normals)
         r = _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend,
-                    out_normals)
+                    out_normals, cerr)
         return self._keep_spares(r, given, normals)
 
     def _keep_spares(self, r, given, normals):
@@ -497,7 +560,7 @@ class MultiresDeformer:
         return r
 
     def _deform_vulkan(self, P, preserve_volume, axes, volume, normals, weights, fixed, rounds, out=None,
-                       kernel_normals=None, out_normals=None):
+                       kernel_normals=None, out_normals=None, constraint_error=float("nan")):
         """One submission: the base's (or, volume="fine", the fine mesh's) Vulkan Deformer
         frame, the reconstruction from its corrected control points and, for "fine",
         the base's FFD of them."""
@@ -513,5 +576,5 @@ class MultiresDeformer:
         X, N, B, r = self._vk.deform_after(d._vk, P, opts, base, out, kernel_normals)
         Pc = r["control_points"]
         return _result(self.multires, X, N, B, normals, Pc.reshape(*self.lattice.shape, 3), volume, self.backend,
-                       out_normals)
+                       out_normals, constraint_error)
 

@@ -295,7 +295,8 @@ class SubdivisionMultires:
         return MultiresResult(vertices=X, normals=N, base_vertices=B, control_points=C, volume=vol,
                               rest_volume=rest, volume_error=_relative(vol, rest), base_volume=bvol,
                               base_rest_volume=brest, base_volume_error=_relative(bvol, brest), volume_mode=volume_mode,
-                              normals_mode=normals, backend="openmp" if _core.has_openmp() else "serial")
+                              normals_mode=normals, backend="openmp" if _core.has_openmp() else "serial",
+                              faces=F)
 
     def __repr__(self) -> str:
         r, n = self.residuals, len(self.unresolved)

@@ -30,6 +30,9 @@ def test_volumes_and_normal_errors(scene):
     assert r["angles"][0].max() < 1e-6
     means = r["angles"].mean(axis=1)
     assert np.all(np.diff(means) > 0) and 0.1 < means[-1] < 5.0
+    # The details: kept by the multiresolution edit, changed (a little: a bend) by the FFD.
+    d = r["details"]
+    assert d["multires"].height_change_max < 1e-12 and d["plain"].height_change_mean > 0.01
 
 
 def test_table_and_csv(scene, tmp_path):

@@ -10,7 +10,9 @@ Writes, under ``out``:
 - ``volume.png``: volume over time (matplotlib), and ``volume.csv``;
 - the moving-object scenes (``vpffd.cli.motion``), the multiresolution scene
   (``vpffd.cli.multires_scene``) and the displaced subdivision surface scene
-  (``vpffd.cli.subdiv_scene``): their GIFs, frames and CSV files;
+  (``vpffd.cli.subdiv_scene``): their GIFs, frames and CSV files, and
+  ``multires_details.png`` (a bumpy ball squashed: FFD of the fine mesh against the
+  multiresolution edit, with the measured change of the details);
 
 and prints the volume change of every frame.
 """
@@ -316,7 +318,8 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
     motion : bool
         also run the moving-object scenes (GIFs, ``motion_volume.png``/``.csv``).
     multires : bool
-        also run the multiresolution scene (``multires.gif``, ``multires.csv``).
+        also run the multiresolution scenes (``multires.gif``, ``multires.csv``,
+        ``multires_details.png``).
     subdiv : bool
         also run the displaced subdivision surface scene (``subdiv.png``,
         ``subdiv.gif``, ``subdiv.csv``; skipped with a note when this build has no
@@ -400,6 +403,11 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
                 files += ms.render(layered, out, size, progress=b)
         ms.write_csv(layered, out / "multires.csv")
         files.append(out / "multires.csv")
+        details = ms.detail_scene(quick, backend=backend)
+        ms.detail_table(details, stream)
+        if can_render:
+            files.append(ms.write_detail_picture(details, out / "multires_details.png",
+                                                 (max(3 * size[0], 900), max(size[1] + 200, 360))))
     displaced = None
     if subdiv:
         from ..subdivision import available as has_subdiv
@@ -436,7 +444,8 @@ def run_demo(out="demo_out", quick: bool = False, render: bool = True, size=(320
                   f"(plain FFD | each object's volume kept; objects coloured by their volume change)", file=stream)
         if layered is not None:
             print(f"multiresolution: {out / 'multires.gif'} (FFD of the fine mesh | multiresolution | angle between "
-                  f"its approximate and exact normals)", file=stream)
+                  f"its approximate and exact normals), {out / 'multires_details.png'} (what each does to the "
+                  "details, measured)", file=stream)
         if displaced is not None:
             print(f"subdivision surface: {out / 'subdiv.png'}, {out / 'subdiv.gif'} (control mesh over the limit "
                   f"surface, rest | edited | detailed result | approximate normal error)", file=stream)

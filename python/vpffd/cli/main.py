@@ -171,8 +171,6 @@ def _cmd_deform(args) -> int:
         _default_toward(args)
     if args.multires is not None and not args.multires > 0:
         raise _UsageError(f"--multires: expected a positive smoothing, got {args.multires}")
-    if args.multires is not None and (args.drag or args.render or args.backend == "vulkan"):
-        raise _UsageError("--multires: --drag, --render and --backend vulkan are not supported with it yet")
     _check_outputs(args, (1600, 600))
 
     # stages: read, embed, deform, write (the bar shows only past one second)
@@ -226,7 +224,7 @@ def _deform(args, bar) -> int:
                          f"{e['nonmanifold_edges']} non-manifold, {e['misoriented_edges']} misoriented edges), "
                          f"so it has no volume to keep; use --preserve none for a plain FFD")
     if args.multires is not None:
-        return _deform_multires(args, mesh, lat, P, preserve, done, bar)
+        return _deform_multires(args, mesh, lat, P, preserve, done, cons, bar)
     d = Deformer(mesh, lat, backend=args.backend, outside=args.outside)
     bar(2, 4, "deforming")
     t0 = time.perf_counter()
@@ -264,10 +262,12 @@ def _deform(args, bar) -> int:
     return 0
 
 
-def _deform_multires(args, mesh, lat, P, preserve, done, bar) -> int:
+def _deform_multires(args, mesh, lat, P, preserve, done, cons, bar) -> int:
     """``deform --multires SMOOTHING``: the edit applied to the mesh's smooth base,
     details rebuilt along the deformed base normals (paper 002); with --preserve the
-    base mesh's volume is kept exactly."""
+    base mesh's volume is kept exactly, with --drag the lattice map takes the dragged
+    points to their targets. --render draws rest | FFD of the fine mesh | multiresolution
+    with what each did to the details."""
     from ..io import save_mesh
     from ..mesh import Mesh
     from ..multires import Multires, MultiresDeformer
@@ -276,7 +276,8 @@ def _deform_multires(args, mesh, lat, P, preserve, done, bar) -> int:
     md = MultiresDeformer(mr, lat, backend=args.backend, outside=args.outside)
     bar(2, 4, "deforming")
     t0 = time.perf_counter()
-    r = md.deform(P, preserve_volume=preserve, axes=args.preserve if preserve else "xyz", volume="base")
+    axes = args.preserve if preserve else "xyz"
+    r = md.deform(P, preserve_volume=preserve, axes=axes, volume="base", constraints=cons or None)
     ms = 1e3 * (time.perf_counter() - t0)
     bar(3, 4, "writing")
     save_mesh(args.output, Mesh(r.vertices, mesh.faces))
@@ -290,7 +291,18 @@ def _deform_multires(args, mesh, lat, P, preserve, done, bar) -> int:
             else "not preserved (--preserve none)"
         print(f"  volume: rest {r.rest_volume:.6g}, multiresolution result {r.volume:.6g} "
               f"(relative error {r.volume_error:.1e}); {kept}")
+    if cons:
+        print(f"  the lattice map takes the dragged points to their targets to {r.constraint_error:.1e} (the "
+              "rebuilt surface follows its base there)")
     print(f"  {r.backend} backend, {ms:.1f} ms; wrote {args.output}")
+    if args.render:
+        from .._png import save_png
+        from ..deformer import Deformer
+        from ..multires_picture import render_multires_comparison
+        plain = Deformer(mesh, lat, backend=md.backend, outside=args.outside).deform(
+            P, preserve_volume=preserve, axes=axes, constraints=cons or None)
+        save_png(args.render, render_multires_comparison(md, plain, r, size=args.size, up=args.up))
+        print(f"  picture: {args.render} (rest | FFD of the fine mesh | multiresolution, with the detail changes)")
     return 0
 
 
@@ -489,10 +501,11 @@ def build_parser() -> argparse.ArgumentParser:
                        "built-in meshes, plain FFD against the volume-preserving FFD restricted to xy, z and xyz; "
                        "prints the volume change of every frame and writes PNG frames, animated GIFs, key-frame "
                        "sheets, volume.png and volume.csv. Then objects moving through a fixed deformation (a shoal "
-                       "round a ring, walkers on a Moebius band), a multiresolution edit (a bumpy body bent: "
-                       "FFD of the fine mesh against base + details, with the normal error) and a displaced "
-                       "subdivision surface edit (control points of a detailed body pulled, with the control mesh, "
-                       "the limit surface and the normal error).")
+                       "round a ring, walkers on a Moebius band), multiresolution edits (a bumpy body bent: "
+                       "FFD of the fine mesh against base + details, with the normal error; a bumpy ball squashed, "
+                       "with how much each changed the details) and a displaced subdivision surface edit (control "
+                       "points of a detailed body pulled, with the control mesh, the limit surface and the normal "
+                       "error).")
     p.add_argument("--out", default="demo_out", metavar="DIR", help="output folder (created)")
     p.add_argument("--size", type=_size, default=(320, 240), metavar="WxH",
                    help="pixels of one panel (default: 320x240)")
@@ -534,7 +547,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "device and precision follow VPFFD_VULKAN_DEVICE and VPFFD_VULKAN_PRECISION)")
     p.add_argument("--multires", type=_finite, metavar="SMOOTHING",
                    help="multiresolution edit: deform the mesh's base faired by SMOOTHING implicit steps and "
-                        "rebuild the details along its normals (keeps the base volume)")
+                        "rebuild the details along its normals (keeps the base volume); with --render the picture "
+                        "is rest | FFD of the fine mesh | multiresolution, with the detail changes measured")
     p.add_argument("--render", metavar="PNG",
                    help="also write a picture: rest | plain FFD | volume-preserved, captioned with the volumes, "
                         "coloured by the local volume change det J")

@@ -10,13 +10,20 @@
 /// orders 2..6, the cell-run one (multires/foot_runs.h: the foot points sorted by
 /// cell once, each cell's polynomial formed once per run, no per-point basis), which
 /// deform() uses; deform_per_point() keeps the first as the reference.
+///
+/// Periodic lattices: the control points given are the distinct ones, expanded to the
+/// extended lattice per frame (lattice/periodic.h), the foot points are wrapped into
+/// the box by the embedding, and the seams' translations and mirrors are applied at
+/// the foot points (foot_seams.h), as the Deformer does at its vertices.
 
 #include <memory>
 
 #include "vpffd/ffd/kernels.h"
 #include "vpffd/ffd/vertex_basis.h"
 #include "vpffd/lattice/embed.h"
+#include "vpffd/lattice/periodic.h"
 #include "vpffd/multires/foot_runs.h"
+#include "vpffd/multires/foot_seams.h"
 #include "vpffd/multires/reconstruct.h"
 
 namespace vpffd {
@@ -117,6 +124,8 @@ class MultiresFFD {
     RowMatrixX3d X(m_->n_vertices(), 3);
     for (Index i = 0; i < X.rows(); ++i) X.row(i) = m_->foot_point(i).transpose();
     embedding_ = embed(lattice_, X, OutsidePolicy::Extrapolate, threads, "foot point");
+    ties_ = make_ties(lattice_);
+    seams_ = FootSeams(lattice_, X);
     du_dx_ = parameter_scale(lattice_);
     if (uses_cell_runs()) runs_ = foot_runs(*m_, tables_, embedding_);
   }
@@ -127,6 +136,8 @@ class MultiresFFD {
   /// and the lattice's per-span power forms: what a device evaluates per frame.
   const Embedding& embedding() const { return embedding_; }
   const BasisTables& tables() const { return tables_; }
+  /// Control points a frame takes: the distinct ones of a periodic lattice.
+  Index n_control_points() const { return ties_.n_distinct; }
   /// Bytes a frame reads per vertex: the decomposition's frame data without the
   /// foot point (replaced by its embedding): 128 - 24 + 36 = 140.
   static constexpr int frame_bytes_per_vertex = Multires::frame_bytes_per_vertex - 3 * int(sizeof(double)) +
@@ -185,12 +196,16 @@ class MultiresFFD {
   void deform(const Eigen::Ref<const RowMatrixX3d>& P, double* X, double* N, int threads = 0) const {
     if (!uses_cell_runs()) return deform_per_point(P, X, N, threads);
     check_control_points(P);
-    const PointColumns Q(P);
+    const PointColumns Q(expand_points(ties_, P));
     const double* const* Pc = Q.c;
+    const bool seams = seams_.any();
     parallel_range(m_->n_vertices(), threads, [&](Index b, Index e) {
       detail::dispatch_order(tables_, [&](auto K) {
         if constexpr (decltype(K)::value > 0)
-          detail::reconstruct_runs<decltype(K)::value>(tables_, runs_, du_dx_, Pc, X, N, b, e);
+          detail::reconstruct_runs<decltype(K)::value>(tables_, runs_, du_dx_, Pc, X, N, b, e,
+                                                       [&](Index i, Vector3d& s1, Matrix3d& J) {
+                                                         if (seams) seams_.apply(i, s1, J);
+                                                       });
       });
     });
   }
@@ -207,7 +222,7 @@ class MultiresFFD {
   /// deform_per_point() into the caller's #V x 3 row-major arrays X and N.
   void deform_per_point(const Eigen::Ref<const RowMatrixX3d>& P, double* X, double* N, int threads = 0) const {
     check_control_points(P);
-    const PointColumns Q(P);
+    const PointColumns Q(expand_points(ties_, P));
     const double* const* Pc = Q.c;
     detail::dispatch_order(tables_, [&](auto K) {
       reconstruct(
@@ -216,6 +231,7 @@ class MultiresFFD {
               Vector3d& sv1) {
             Matrix3d J;
             detail::ffd_value_jacobian<decltype(K)::value>(tables_, embedding_, Pc, du_dx_, i, s1, J);
+            seams_.apply(i, s1, J);
             su1 = J * su;
             sv1 = J * sv;
           },
@@ -223,10 +239,10 @@ class MultiresFFD {
     });
   }
 
-  /// @throws InvalidInputError unless P has one finite row per control point
+  /// @throws InvalidInputError unless P has one finite row per (distinct) control point
   void check_control_points(const Eigen::Ref<const RowMatrixX3d>& P) const {
-    VPFFD_CHECK(P.rows() == lattice_.n_control_points(), "MultiresFFD: ", P.rows(),
-                " control points, the lattice has ", lattice_.n_control_points());
+    VPFFD_CHECK(P.rows() == n_control_points(), "MultiresFFD: ", P.rows(), " control points, the lattice has ",
+                n_control_points());
     VPFFD_CHECK(P.allFinite(), "MultiresFFD: control points contain NaN or Inf");
   }
 
@@ -237,12 +253,15 @@ class MultiresFFD {
   void fill_values_jacobians(const Eigen::Ref<const RowMatrixX3d>& P, RowMatrixX3d& values, RowMatrixXd& J,
                              int threads, Eval&& eval) const {
     check_control_points(P);
-    const PointColumns Q(P);
+    const PointColumns Q(expand_points(ties_, P));
     const double* const* Pc = Q.c;
     const Index n = m_->n_vertices();
     values.resize(n, 3);
     J.resize(n, 9);
-    auto put = [&](Index i, const Vector3d& x, const Matrix3d& Ji) {
+    auto put = [&](Index i, const Vector3d& value, const Matrix3d& JD) {
+      Vector3d x = value;
+      Matrix3d Ji = JD;
+      seams_.apply(i, x, Ji);
       values.row(i) = x.transpose();
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) J(i, 3 * r + c) = Ji(r, c);
@@ -257,6 +276,8 @@ class MultiresFFD {
   Embedding embedding_;
   Vector3d du_dx_;
   FootRuns runs_;  // empty unless uses_cell_runs()
+  Ties ties_;       // distinct -> extended control points (identity without periodic axes)
+  FootSeams seams_;
 };
 
 }  // namespace vpffd

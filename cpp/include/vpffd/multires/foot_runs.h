@@ -108,11 +108,15 @@ void foot_runs_eval(const BasisTables& T, const FootRuns& F, const Vector3d& du_
 }
 
 /// The frame for the cell-ordered points [b, e): vertex rows order[v] of X and N
-/// (#V x 3, row-major).
-template <int K>
+/// (#V x 3, row-major). fix(caller row, value, J) may change the spline's value and
+/// Jacobian before the vertex is rebuilt (a periodic lattice's seams: foot_seams.h).
+template <int K, class Fix>
 void reconstruct_runs(const BasisTables& T, const FootRuns& F, const Vector3d& du_dx, const double* const P[3],
-                      double* X, double* N, Index b, Index e) {
-  foot_runs_eval<K>(T, F, du_dx, P, b, e, [&](Index u, const Vector3d& s1, const Matrix3d& J) {
+                      double* X, double* N, Index b, Index e, Fix&& fix) {
+  foot_runs_eval<K>(T, F, du_dx, P, b, e, [&](Index u, const Vector3d& value, const Matrix3d& JD) {
+    Vector3d s1 = value;
+    Matrix3d J = JD;
+    fix(Index(F.order[u]), s1, J);
     const Vector3d su(F.su[0][u], F.su[1][u], F.su[2][u]), sv(F.sv[0][u], F.sv[1][u], F.sv[2][u]);
     NormalCoefficients c;
     for (int k = 0; k < 6; ++k) c[k] = F.coef[k][u];
