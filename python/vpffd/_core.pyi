@@ -8,7 +8,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['BackendUnavailableError', 'CorrectionOptions', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'Multires', 'MultiresFFD', 'RayScene', 'RbfMap', 'RbfRegions', 'RbfWeights', 'SolverError', 'VulkanDeformer', 'VulkanMultires', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'cone_volumes', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
+__all__: list[str] = ['BackendUnavailableError', 'CorrectionOptions', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'Multires', 'MultiresFFD', 'RayScene', 'RbfMap', 'RbfRegions', 'RbfWeights', 'SolverError', 'SubdivAffineGroup', 'SubdivisionMultires', 'VulkanDeformer', 'VulkanMultires', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'cone_volumes', 'decimate_mesh', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_opensubdiv', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'subdivision_decompose', 'subdivision_decompose_decimated', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
 class InvalidInputError(ValueError):
     pass
 class SolverError(RuntimeError):
@@ -189,7 +189,7 @@ class Deformer:
         """
         One frame (vpffd::Deformer::deform): the result as a dict (vertices, control_points, offsets, volumes, steps, [part volumes], [timings]).
         """
-    def deformed_normals(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], rest_normals: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+    def deformed_normals(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], rest_normals: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0, out: typing.Any = None) -> typing.Any:
         ...
     def face_matrix(self, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
         ...
@@ -262,9 +262,9 @@ class Multires:
     """
     Two-scale decomposition (base + displacements).
     """
-    bytes_per_vertex: typing.ClassVar[int] = 228
+    bytes_per_vertex: typing.ClassVar[int] = 229
     frame_bytes_per_vertex: typing.ClassVar[int] = 128
-    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], smoothing: typing.SupportsFloat | typing.SupportsIndex, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
+    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], smoothing: typing.SupportsFloat | typing.SupportsIndex, threads: typing.SupportsInt | typing.SupportsIndex = 0, exact_foot_points: bool = True, fit_rounds: typing.SupportsInt | typing.SupportsIndex = 4, fairness: typing.SupportsFloat | typing.SupportsIndex = 100.0) -> None:
         ...
     @property
     def base(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
@@ -273,7 +273,13 @@ class Multires:
     def displacements(self) -> numpy.typing.NDArray[numpy.float64]:
         ...
     @property
+    def exact(self) -> numpy.typing.NDArray[numpy.bool]:
+        ...
+    @property
     def extrapolated_fraction(self) -> float:
+        ...
+    @property
+    def fairness(self) -> float:
         ...
     @property
     def foot_faces(self) -> numpy.typing.NDArray[numpy.int32]:
@@ -294,10 +300,16 @@ class Multires:
     def rest_normals(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
         ...
     @property
+    def rms_displacement(self) -> list[float]:
+        ...
+    @property
     def tangents_u(self) -> numpy.typing.NDArray[numpy.float64]:
         ...
     @property
     def tangents_v(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def unresolved_count(self) -> int:
         ...
 class MultiresFFD:
     """
@@ -306,11 +318,11 @@ class MultiresFFD:
     frame_bytes_per_vertex: typing.ClassVar[int] = 140
     def __init__(self, multires: Multires, lattice: LatticeSpec, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
         ...
-    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0, out: typing.Any = None, out_normals: typing.Any = None) -> tuple:
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0, out: typing.Any = None, out_normals: typing.Any = None) -> tuple[typing.Any, typing.Any]:
         """
         (vertices (V, 3), unit normals (V, 3)).
         """
-    def deform_per_point(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
+    def deform_per_point(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0, out: typing.Any = None, out_normals: typing.Any = None) -> tuple[typing.Any, typing.Any]:
         """
         deform() with the per-point kernel (its reference): (vertices (V, 3), unit normals (V, 3)).
         """
@@ -367,13 +379,13 @@ class RbfRegions:
     """
     Paper 002 Section 6: deformable region, K handle regions moved by affine maps, the RBF deformation basis precomputed per free vertex.
     """
-    def __init__(self, multires: Multires, deformable: numpy.typing.NDArray[numpy.uint8], handles: list[numpy.typing.NDArray[numpy.int64]], fixed_rings: typing.SupportsInt | typing.SupportsIndex = 2, spacing: typing.SupportsFloat = 0.0, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
+    def __init__(self, multires: Multires, deformable: typing.Annotated[numpy.typing.ArrayLike, numpy.uint8], handles: collections.abc.Sequence[typing.Annotated[numpy.typing.ArrayLike, numpy.int64]], fixed_rings: typing.SupportsInt | typing.SupportsIndex = 2, spacing: typing.SupportsFloat | typing.SupportsIndex = 0.0, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> None:
         ...
-    def deform(self, transforms: list[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[4, 4]"]], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
+    def deform(self, transforms: collections.abc.Sequence[typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[4, 4]"]], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"], typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"], typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]]:
         """
         (vertices (V, 3), unit normals (V, 3), base vertices (V, 3)) for K (4, 4) affine transforms.
         """
-    def targets(self, transforms: list[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[4, 4]"]]) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+    def targets(self, transforms: collections.abc.Sequence[typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[4, 4]"]]) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
         """
         (H, 3) constraint targets of the K (4, 4) transforms.
         """
@@ -478,7 +490,7 @@ class VulkanMultires:
         """
         (vertices (V, 3), approximate unit normals (V, 3)), input order.
         """
-    def deform_after(self, correction: VulkanDeformer, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions, base: VulkanDeformer = None) -> tuple[typing.Any, typing.Any, typing.Any, dict]:
+    def deform_after(self, correction: VulkanDeformer, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], options: CorrectionOptions, base: VulkanDeformer = None, out: typing.Any = None, out_normals: typing.Any = None) -> tuple[typing.Any, typing.Any, typing.Any, dict]:
         """
         One submission: correction's frame (as VulkanDeformer.deform), then the reconstruction from its corrected control points (and, with base, the base Deformer's FFD of them): (vertices, normals, base vertices, the correction's result dict without 'vertices').
         """
@@ -529,6 +541,85 @@ class RayScene:
     @property
     def n_vertices(self) -> int:
         ...
+class SubdivisionMultires:
+    """
+    Displaced subdivision surface: limit surface of a control mesh + displacements.
+    """
+    def affine_group(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], indices: collections.abc.Sequence[typing.SupportsInt | typing.SupportsIndex], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> ...:
+        ...
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
+        """
+        (vertices (V, 3), approximate unit normals (V, 3), base points S'(t_i) (V, 3)).
+        """
+    def deform_affine(self, group: ..., transform: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[4, 4]"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> tuple:
+        ...
+    @property
+    def control_face_sizes(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
+    @property
+    def control_faces(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
+    @property
+    def control_points(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        ...
+    @property
+    def diagonal(self) -> float:
+        ...
+    @property
+    def displacements(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def frame_bytes_per_vertex(self) -> float:
+        ...
+    @property
+    def normal_coefficients(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def patches(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
+    @property
+    def residuals(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def rest_normals(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
+        ...
+    @property
+    def rms_final(self) -> float:
+        ...
+    @property
+    def rms_initial(self) -> float:
+        ...
+    @property
+    def rms_rounds(self) -> list[float]:
+        ...
+    @property
+    def scheme(self) -> str:
+        ...
+    @property
+    def seconds(self) -> float:
+        ...
+    @property
+    def stencils(self) -> tuple[numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int32], numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
+        ...
+    @property
+    def unresolved(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
+    @property
+    def uv(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+class SubdivAffineGroup:
+    """
+    A control-point group with its basis precomputed per fine vertex.
+    """
+    @property
+    def bytes_per_vertex(self) -> float:
+        ...
+    @property
+    def indices(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
+    @property
+    def rows(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
 def basis_functions(knots: collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex], degree: typing.SupportsInt | typing.SupportsIndex, u: collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex], derivatives: bool = False) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]"]:
     """
     Dense (len(u), n) matrix of B-spline basis values (or first derivatives) by Cox-de Boor.
@@ -555,6 +646,10 @@ def clamped_uniform_knots(n: typing.SupportsInt | typing.SupportsIndex, degree: 
     ...
 def cone_volumes(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], origin: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], check: bool = True) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 1]"]:
     ...
+def decimate_mesh(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], target: typing.SupportsInt | typing.SupportsIndex) -> tuple[typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"], typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]"]]:
+    """
+    (control points (M, 3), triangles) by quadric decimation to about `target` vertices.
+    """
 def deformed_normals_exact(jacobians: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]", "flags.c_contiguous"], rest_normals: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], threads: typing.SupportsInt | typing.SupportsIndex = 0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
     """
     (V, 3) unit normals cof(J) n0 / |cof(J) n0| from (V, 9) row-major Jacobians.
@@ -601,6 +696,14 @@ def scale(points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"
     ...
 def signed_volume(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], origin: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"] = ..., check: bool = True) -> float:
     ...
+def subdivision_decompose(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], face_sizes: collections.abc.Sequence[typing.SupportsInt | typing.SupportsIndex], face_vertices: collections.abc.Sequence[typing.SupportsInt | typing.SupportsIndex], scheme: str, fairness: typing.SupportsFloat | typing.SupportsIndex, iterations: typing.SupportsInt | typing.SupportsIndex, approx_level: typing.SupportsInt | typing.SupportsIndex, max_unresolved: typing.SupportsInt | typing.SupportsIndex, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> SubdivisionMultires:
+    """
+    Decomposition over a given control mesh (polygons as sizes + concatenated vertices).
+    """
+def subdivision_decompose_decimated(vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], control_vertices: typing.SupportsInt | typing.SupportsIndex, scheme: str, fairness: typing.SupportsFloat | typing.SupportsIndex, iterations: typing.SupportsInt | typing.SupportsIndex, approx_level: typing.SupportsInt | typing.SupportsIndex, max_unresolved: typing.SupportsInt | typing.SupportsIndex, threads: typing.SupportsInt | typing.SupportsIndex = 0) -> SubdivisionMultires:
+    """
+    Decomposition over a control mesh decimated from the fine one.
+    """
 def taper(points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], factor: typing.SupportsFloat | typing.SupportsIndex, axis: typing.SupportsInt | typing.SupportsIndex, center: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], lo: typing.SupportsFloat | typing.SupportsIndex = 0.0, hi: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
     ...
 def twist(points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], angle: typing.SupportsFloat | typing.SupportsIndex, axis: typing.SupportsInt | typing.SupportsIndex, center: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[3, 1]"], lo: typing.SupportsFloat | typing.SupportsIndex = 0.0, hi: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
@@ -622,6 +725,7 @@ def write_mesh(path: str, vertices: typing.Annotated[numpy.typing.NDArray[numpy.
 __version__: str = '0.1.0'
 has_embree: bool = True
 has_openmesh: bool = True
+has_opensubdiv: bool = True
 has_vulkan: bool = True
 max_fold_depth: int = 10
 max_subcells_per_cell: int = 4096
