@@ -151,6 +151,19 @@ def test_frame_within_derived_bounds(name, scheme, edit, precision):
         assert np.all(_norm(gpu.vertices - mesh.vertices) <= e_p + 1e-9 * diag)
 
 
+@pytest.mark.parametrize("size", [1e-9, 1e9])
+def test_any_mesh_size(size, precision):
+    # Device lengths are in a power-of-two unit near the control points' size: without
+    # it float-float (float32's exponent range) would underflow on a 1e-9 mesh's
+    # squared tangents and overflow on a 1e9 one's crosses; the bound is relative.
+    sm = vpffd.SubdivisionMultires(vpffd.shapes.bumpy_sphere(3, radius=size), control_vertices=80)
+    C = _edit(sm.control_points)
+    gpu, cpu = _frames(sm, C, precision)
+    e_p, _, e_ang = subdiv_bounds(sm, sm._vulkan_frame(SEL, precision), C)
+    assert np.all(_norm(gpu.vertices - cpu.vertices) <= e_p)
+    assert np.all(angles_deg(gpu.normals, cpu.normals) <= e_ang)
+    assert e_p.max() < 1e-6 * size
+
 @pytest.mark.parametrize("name,scheme", CASES[:2])
 def test_frames_repeat_bit_for_bit(name, scheme, precision):
     _, sm = decomposition(name, scheme)
