@@ -17,6 +17,7 @@ import numpy as np
 import scipy.sparse
 
 from . import _arrays, _core
+from .backends import _requested_precision, _resolve_backend
 from .mesh import Mesh
 from .multires import MultiresResult, _check_normals, _read_only, _relative, _threads_arg, _volume
 
@@ -239,7 +240,7 @@ class SubdivisionMultires:
         return _arrays.points(C, "control_points", rows=self.n_control)
 
     def deform(self, control_points, normals: str = "approximate", preserve_volume: bool = False,
-               threads=None) -> MultiresResult:
+               threads=None, backend: str = "auto", device=None, gpu_precision=None) -> MultiresResult:
         """One frame from new control points (M, 3) (not modified).
 
         Returns a ``MultiresResult``: ``vertices`` p' = S'(t_i) + d_i N_S',
@@ -254,6 +255,20 @@ class SubdivisionMultires:
             (``base_volume_error`` ~1e-15); the fine mesh's volume is reported
             (``volume_error``), close but not exact. Needs a closed mesh. The
             correction runs in numpy (three passes over the stencils and faces).
+        backend : {"auto", "cpu", "openmp", "serial", "vulkan"}
+            "cpu": "openmp" where this build has it, else "serial". "vulkan": the frame (stencil sums and per-vertex rebuild) is one compute
+            dispatch on a Vulkan device (``_core.VulkanSubdivFrame``): the stencils, d
+            and the coefficients are uploaded on the first such frame and kept; a frame
+            uploads the control points (float32, 12 bytes each) and reads back the
+            vertices, normals and limit points (float32). Positions agree with the CPU
+            to a few float32 roundings of the control points' size (see
+            tests/python/test_subdivision_vulkan.py). "auto" is the CPU unless a device
+            is named (``device`` or VPFFD_VULKAN_DEVICE): for the sizes this class
+            decomposes the CPU frame is already a few ms.
+        device : int or str, optional
+            "vulkan": the device (index or part of its name), as ``Deformer``.
+        gpu_precision : {"auto", "float64", "float-float"}, optional
+            "vulkan": how the device forms the stencil sums, as ``Deformer``.
         """
         _check_normals(normals)
         C = self._control_points(control_points)
@@ -264,8 +279,34 @@ class SubdivisionMultires:
                                         "(this one has boundary, non-manifold or misoriented edges)")
             C = preserve_base_volume(self._phi(), self.mesh.faces, C, self._rest_volumes[1])
             volume_mode = "base"
-        X, N, B = self._m.deform(C, _threads_arg(threads))
-        return self._result(X, N, B, normals, C, volume_mode)
+        resolved, threads_core, selector = self._backend(backend, threads, device)
+        if resolved == "vulkan":
+            X, N, B = self._vulkan_frame(selector, gpu_precision).deform(C)
+        else:
+            X, N, B = self._m.deform(C, threads_core)
+        return self._result(X, N, B, normals, C, volume_mode, resolved)
+
+    def _backend(self, backend, threads, device):
+        """(backend, threads for the CPU core, device selector) of a frame: "auto" is
+        the CPU unless a device is named (n_vertices=0 keeps _resolve_backend's size
+        rule from choosing a GPU by itself)."""
+        _threads_arg(threads)  # this class's message for a bad count
+        if backend == "cpu":  # the CPU frame, threaded where this build has OpenMP
+            backend = "openmp" if _core.has_openmp() else "serial"
+        return _resolve_backend(backend, threads, device, n_vertices=0)
+
+    def _vulkan_frame(self, selector, gpu_precision):
+        """The device frame for (device, precision), made on first use and kept (its
+        set-up uploads the stencils and compiles the pipeline)."""
+        precision = _requested_precision(gpu_precision)
+        frames = self.__dict__.setdefault("_vulkan_frames", {})
+        key = (selector, precision)
+        if key not in frames:
+            indptr, indices, w, wu, wv = self._m.stencils
+            frames[key] = _core.VulkanSubdivFrame(indptr, indices, w, wu, wv, self._m.displacements,
+                                                  self._m.normal_coefficients, self.control_points, selector,
+                                                  precision)
+        return frames[key]
 
     def _phi(self):
         """Phi (V x M CSR): the position stencils, made on first use."""
@@ -286,7 +327,7 @@ class SubdivisionMultires:
         g = self._m.affine_group(C, idx.astype(np.int32).tolist(), _threads_arg(threads))
         return SubdivisionAffineGroup(self, g, C)
 
-    def _result(self, X, N, B, normals, C, volume_mode="none") -> MultiresResult:
+    def _result(self, X, N, B, normals, C, volume_mode="none", backend=None) -> MultiresResult:
         F = self.mesh.faces
         if normals == "exact":
             N = _core.vertex_normals(X, F)
@@ -295,7 +336,8 @@ class SubdivisionMultires:
         return MultiresResult(vertices=X, normals=N, base_vertices=B, control_points=C, volume=vol,
                               rest_volume=rest, volume_error=_relative(vol, rest), base_volume=bvol,
                               base_rest_volume=brest, base_volume_error=_relative(bvol, brest), volume_mode=volume_mode,
-                              normals_mode=normals, backend="openmp" if _core.has_openmp() else "serial",
+                              normals_mode=normals,
+                              backend=backend or ("openmp" if _core.has_openmp() else "serial"),
                               faces=F)
 
     def __repr__(self) -> str:

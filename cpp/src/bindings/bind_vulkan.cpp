@@ -1,5 +1,6 @@
 // The Vulkan backend: _core.VulkanDeformer (deform() as _core.Deformer.deform),
-// _core.VulkanMultires (deform() as _core.MultiresFFD.deform) and _core.vulkan_devices().
+// _core.VulkanMultires (deform() as _core.MultiresFFD.deform), _core.VulkanSubdivFrame
+// (deform() as _core.SubdivisionMultires.deform, from plain arrays) and _core.vulkan_devices().
 
 #include <optional>
 
@@ -7,6 +8,7 @@
 #include "vpffd/frame/deformer.h"
 #include "vpffd/backend/vulkan.h"
 #include "vpffd/backend/vulkan_multires.h"
+#include "vpffd/backend/vulkan_subdiv.h"
 
 namespace vpffd::bindings {
 
@@ -242,6 +244,78 @@ void bind_vulkan(py::module_& m) {
           "One submission: correction's frame (as VulkanDeformer.deform), then the reconstruction from its "
           "corrected control points (and, with base, the base Deformer's FFD of them): (vertices, normals, "
           "base vertices, the correction's result dict without 'vertices').");
+
+  using vulkan::VulkanSubdivFrame;
+  using IdxPtr = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>;
+  using IdxArr = py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>;
+  using DblArr = py::array_t<double, py::array::c_style | py::array::forcecast>;
+  py::class_<VulkanSubdivFrame, std::unique_ptr<VulkanSubdivFrame>>(
+      m, "VulkanSubdivFrame",
+      "The frame of a displaced subdivision surface on a Vulkan device, from the decomposition's plain arrays "
+      "(SubdivisionMultires.stencils, displacements, normal_coefficients).")
+      .def(py::init([](const IdxPtr& indptr, const IdxArr& indices, const DblArr& w, const DblArr& wu,
+                       const DblArr& wv, const DblArr& d, const DblArr& coef, RefV rest, const std::string& device,
+                       const std::string& precision) {
+             const vulkan::Precision prec = vulkan::parse_precision(precision);
+             // The view holds pointers: the lengths are checked here, the contents by the constructor.
+             VPFFD_CHECK(indptr.ndim() == 1 && indptr.size() >= 1, "VulkanSubdivFrame: indptr must be 1-D, V + 1");
+             const Index nv = Index(indptr.size()) - 1;
+             const std::int64_t nnz = indptr.at(nv);
+             for (const DblArr* a : {&w, &wu, &wv})
+               VPFFD_CHECK(a->ndim() == 1 && std::int64_t(a->size()) == nnz, "VulkanSubdivFrame: the weights must "
+                           "have indptr[-1] = ", nnz, " entries, got ", a->size());
+             VPFFD_CHECK(indices.ndim() == 1 && std::int64_t(indices.size()) == nnz,
+                         "VulkanSubdivFrame: indices must have indptr[-1] = ", nnz, " entries, got ", indices.size());
+             VPFFD_CHECK(d.ndim() == 1 && Index(d.size()) == nv, "VulkanSubdivFrame: expected ", nv,
+                         " displacements, got ", d.size());
+             VPFFD_CHECK(Index(coef.size()) == 6 * nv, "VulkanSubdivFrame: expected ", nv,
+                         " x 6 normal coefficients, got ", coef.size(), " numbers");
+             vulkan::SubdivStencilsView s;
+             s.n_vertices = nv;
+             s.n_control = rest.rows();
+             s.indptr = indptr.data();
+             s.indices = indices.data();
+             s.w = w.data();
+             s.wu = wu.data();
+             s.wv = wv.data();
+             s.d = d.data();
+             s.coef = coef.data();
+             py::gil_scoped_release release;
+             return std::make_unique<VulkanSubdivFrame>(s, rest, device, prec);
+           }),
+           py::arg("indptr"), py::arg("indices"), py::arg("w"), py::arg("wu"), py::arg("wv"), py::arg("displacements"),
+           py::arg("normal_coefficients"), py::arg("rest_control_points"), py::arg("device") = "",
+           py::arg("precision") = "auto")
+      .def_property_readonly("device", [](const VulkanSubdivFrame& f) { return device_to_python(f.device()); })
+      .def_property_readonly("origin", &VulkanSubdivFrame::origin)
+      .def_property_readonly("scale", &VulkanSubdivFrame::scale)
+      .def_property_readonly("n_vertices", &VulkanSubdivFrame::n_vertices)
+      .def_property_readonly("n_control", &VulkanSubdivFrame::n_control)
+      .def_property_readonly(
+          "precision", [](const VulkanSubdivFrame& f) { return std::string(vulkan::precision_name(f.precision())); })
+      .def("last_timings",
+           [](const VulkanSubdivFrame& f) {
+             vulkan::FrameTimings t;
+             {
+               py::gil_scoped_release release;
+               t = f.last_timings();
+             }
+             return timings_to_python(t);
+           })
+      .def(
+          "deform",
+          [](VulkanSubdivFrame& f, RefV C) {
+            vulkan::SubdivDeviceFrame r;
+            {
+              py::gil_scoped_release release;
+              r = f.deform(C);
+            }
+            return py::make_tuple(py::cast(std::move(r.vertices)), py::cast(std::move(r.normals)),
+                                  py::cast(std::move(r.base)));
+          },
+          py::arg("control_points"),
+          "(vertices (V, 3), approximate unit normals (V, 3), limit points S'(t_i) (V, 3)), as "
+          "SubdivisionMultires.deform.");
 }
 
 }  // namespace vpffd::bindings
