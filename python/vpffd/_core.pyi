@@ -8,7 +8,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['BackendUnavailableError', 'CorrectionOptions', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'Multires', 'MultiresFFD', 'RayScene', 'RbfMap', 'RbfRegions', 'RbfWeights', 'SolverError', 'SubdivAffineGroup', 'SubdivisionMultires', 'VulkanDeformer', 'VulkanMultires', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'cone_volumes', 'decimate_mesh', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_opensubdiv', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'subdivision_decompose', 'subdivision_decompose_decimated', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
+__all__: list[str] = ['BackendUnavailableError', 'CorrectionOptions', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'Multires', 'MultiresFFD', 'RayScene', 'RbfMap', 'RbfRegions', 'RbfWeights', 'SolverError', 'SubdivAffineGroup', 'SubdivisionMultires', 'VulkanDeformer', 'VulkanMultires', 'VulkanSubdivFrame', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'cone_volumes', 'decimate_mesh', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_opensubdiv', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'subdivision_decompose', 'subdivision_decompose_decimated', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
 class InvalidInputError(ValueError):
     pass
 class SolverError(RuntimeError):
@@ -516,6 +516,36 @@ class VulkanMultires:
         ...
     @property
     def vertex_order(self) -> numpy.typing.NDArray[numpy.int32]:
+        ...
+class VulkanSubdivFrame:
+    """
+    The frame of a displaced subdivision surface on a Vulkan device, from the decomposition's plain arrays (SubdivisionMultires.stencils, displacements, normal_coefficients).
+    """
+    def __init__(self, indptr: typing.Annotated[numpy.typing.ArrayLike, numpy.int64], indices: typing.Annotated[numpy.typing.ArrayLike, numpy.int32], w: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], wu: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], wv: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], displacements: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], normal_coefficients: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], rest_control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], device: str = '', precision: str = 'auto') -> None:
+        ...
+    def deform(self, control_points: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"]) -> tuple[typing.Any, typing.Any, typing.Any]:
+        """
+        (vertices (V, 3), approximate unit normals (V, 3), limit points S'(t_i) (V, 3)), as SubdivisionMultires.deform.
+        """
+    def last_timings(self) -> dict:
+        ...
+    @property
+    def device(self) -> dict:
+        ...
+    @property
+    def n_control(self) -> int:
+        ...
+    @property
+    def n_vertices(self) -> int:
+        ...
+    @property
+    def origin(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]:
+        ...
+    @property
+    def precision(self) -> str:
+        ...
+    @property
+    def scale(self) -> float:
         ...
 class RayScene:
     """
