@@ -76,27 +76,61 @@ def _volume_gradient(B, F) -> np.ndarray:
     return G / 6.0
 
 
-def preserve_base_volume(Phi, F, C, target):
+def preserve_base_volume(Phi, F, C, target, axes="xyz", weights=None):
     """Paper 000's volume correction with the control points as the basis: the base
     points B = Phi C (V, 3), joined by the fine faces F, get the enclosed volume
-    ``target``. Three axis steps (x, y, z); each moves the control points along one
-    axis only, where the volume is linear, by the least-squares offsets
-    delta = a alpha / |alpha|^2 (eq. 24) with alpha = Phi^T d vol / d B_axis and
-    a = (target - vol(Phi C)) / 3 fixed before the first step: after the third step
-    the volume is ``target`` to rounding. Returns the corrected (M, 3) control
-    points (a new array)."""
+    ``target``. One step per axis of ``axes`` (in that order); each moves the control
+    points along that axis only, where the volume is linear in them, by the weighted
+    least-squares offsets delta_j = a w_j alpha_j / sum_k w_k alpha_k^2 (eq. 24 with
+    the paper's weights) with alpha = Phi^T d vol / d B_axis and a = (target -
+    vol(Phi C)) / len(axes) fixed before the first step: after the last step the
+    volume is ``target`` to rounding. ``weights`` (M,) >= 0 (None: all 1; 0: the
+    point does not move). Returns the corrected (M, 3) control points (a new array).
+    Raises SolverError when an axis's step cannot change the volume (every point that
+    may move has alpha = 0 there)."""
     C = np.array(C, dtype=np.float64)
+    w = np.ones(len(C)) if weights is None else np.asarray(weights, dtype=np.float64)
     lo, hi = _arrays.bounds(Phi @ C)
     centre = 0.5 * (lo + hi)  # volumes about the box centre: less cancellation
-    share = (target - float(_core.signed_volume(Phi @ C, F, centre, False))) / 3.0
-    for axis in range(3):
+    share = (target - float(_core.signed_volume(Phi @ C, F, centre, False))) / len(axes)
+    for name in axes:
+        axis = "xyz".index(name)
         alpha = Phi.T @ _volume_gradient(Phi @ C - centre, F)[:, axis]
-        norm2 = float(alpha @ alpha)
+        norm2 = float((w * alpha) @ alpha)
         if not norm2 > 0:
-            raise _core.SolverError(f"preserve_volume: the volume does not depend on the control points' "
-                                    f"{'xyz'[axis]} coordinates")
-        C[:, axis] += share / norm2 * alpha
+            raise _core.SolverError(f"preserve_volume: the volume does not depend on the {'xyz'[axis]} "
+                                    f"coordinates of the control points that may move")
+        C[:, axis] += share / norm2 * (w * alpha)
     return C
+
+
+def _correction_weights(M, axes, weights, fixed, who):
+    """Checked (axes, weights (M,) or None) of a volume correction: ``axes`` distinct
+    letters of "xyz"; ``weights`` M finite values >= 0; ``fixed`` a boolean mask (M,)
+    or indices of control points that must not move (their weight becomes 0)."""
+    if not isinstance(axes, str) or not axes or any(a not in "xyz" for a in axes) or len(set(axes)) != len(axes):
+        raise InvalidInputError(f"{who}: axes must be distinct letters of 'xyz', such as 'xyz' or 'z', got {axes!r}")
+    w = None
+    if weights is not None:
+        w = np.array(weights, dtype=np.float64)
+        if w.shape != (M,) or not np.isfinite(w).all() or (w < 0).any():
+            raise InvalidInputError(f"{who}: weights must be {M} finite values >= 0 (one per control point), "
+                                    f"got shape {w.shape}")
+    if fixed is not None:
+        f = np.asarray(fixed)
+        if f.dtype == bool:
+            if f.shape != (M,):
+                raise InvalidInputError(f"{who}: a fixed mask must have {M} entries, got shape {f.shape}")
+            idx = np.flatnonzero(f)
+        else:
+            if f.ndim != 1 or not np.issubdtype(f.dtype, np.integer) or (f.size and (f.min() < 0 or f.max() >= M)):
+                raise InvalidInputError(f"{who}: fixed must be a boolean mask of {M} entries or indices in 0..{M - 1}")
+            idx = f
+        w = np.ones(M) if w is None else w
+        w[idx] = 0.0
+    if w is not None and not (w > 0).any():
+        raise _core.SolverError(f"{who}: every control point is fixed (or has weight 0): nothing can move")
+    return axes, w
 
 
 class SubdivisionMultires:
@@ -240,7 +274,8 @@ class SubdivisionMultires:
         return _arrays.points(C, "control_points", rows=self.n_control)
 
     def deform(self, control_points, normals: str = "approximate", preserve_volume: bool = False,
-               threads=None, backend: str = "auto", device=None, gpu_precision=None) -> MultiresResult:
+               threads=None, backend: str = "auto", device=None, gpu_precision=None, axes: str = "xyz",
+               weights=None, fixed=None) -> MultiresResult:
         """One frame from new control points (M, 3) (not modified).
 
         Returns a ``MultiresResult``: ``vertices`` p' = S'(t_i) + d_i N_S',
@@ -254,7 +289,15 @@ class SubdivisionMultires:
             S'(t_i), joined by the fine faces, keep their rest volume exactly
             (``base_volume_error`` ~1e-15); the fine mesh's volume is reported
             (``volume_error``), close but not exact. Needs a closed mesh. The
-            correction runs in numpy (three passes over the stencils and faces).
+            correction runs in numpy (a pass over the stencils and faces per axis).
+        axes : str
+            with ``preserve_volume``: the axes the control points move along, in
+            order (default "xyz"; "z" keeps x and y of every control point).
+        weights : (M,) array of float >= 0, optional
+            with ``preserve_volume``: how freely each control point moves (the
+            paper's weights: offsets proportional to them; 0 holds a point still).
+        fixed : (M,) bool mask or indices, optional
+            with ``preserve_volume``: control points that must not move.
         backend : {"auto", "cpu", "openmp", "serial", "vulkan"}
             "cpu": "openmp" where this build has it, else "serial". "vulkan": the frame (stencil sums and per-vertex rebuild) is one compute
             dispatch on a Vulkan device (``_core.VulkanSubdivFrame``): the stencils, d
@@ -277,7 +320,8 @@ class SubdivisionMultires:
             if not self.mesh.is_closed:
                 raise InvalidInputError("SubdivisionMultires.deform: preserve_volume needs a closed mesh "
                                         "(this one has boundary, non-manifold or misoriented edges)")
-            C = preserve_base_volume(self._phi(), self.mesh.faces, C, self._rest_volumes[1])
+            axes, w = _correction_weights(len(C), axes, weights, fixed, "SubdivisionMultires.deform")
+            C = preserve_base_volume(self._phi(), self.mesh.faces, C, self._rest_volumes[1], axes, w)
             volume_mode = "base"
         resolved, threads_core, selector = self._backend(backend, threads, device)
         if resolved == "vulkan":

@@ -343,3 +343,48 @@ def test_decimation_keeps_the_topology(name, euler):
     edges = {tuple(sorted(e)) for f in F for e in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}
     assert sm.n_control - len(edges) + len(F) == euler
     assert sm.control_mesh.is_closed
+
+
+@pytest.mark.parametrize("name,scheme", CASES[:2])
+def test_preserve_volume_axes_weights_and_fixed_points(name, scheme):
+    mesh, sm = decomposition(name, scheme)
+    C = np.array(sm.control_points)
+    C[:, 2] *= 0.7
+    M = len(C)
+    # Only z may move: x and y of every control point stay bit for bit.
+    r = sm.deform(C, preserve_volume=True, axes="z")
+    assert r.base_volume_error < 1e-11
+    np.testing.assert_array_equal(r.control_points[:, :2], C[:, :2])
+    # Fixed points (mask or indices) stay; the others carry the whole correction.
+    fixed = np.zeros(M, bool)
+    fixed[: M // 2] = True
+    for f in (fixed, np.flatnonzero(fixed)):
+        r = sm.deform(C, preserve_volume=True, fixed=f)
+        assert r.base_volume_error < 1e-11
+        np.testing.assert_array_equal(r.control_points[fixed], C[fixed])
+        assert np.abs(r.control_points[~fixed] - C[~fixed]).max() > 1e-3
+    # Weights: offsets proportional to them along each axis (one axis: exactly).
+    w = np.linspace(0.5, 2.0, M)
+    r1 = sm.deform(C, preserve_volume=True, axes="z")
+    rw = sm.deform(C, preserve_volume=True, axes="z", weights=w)
+    d1, dw = r1.control_points[:, 2] - C[:, 2], rw.control_points[:, 2] - C[:, 2]
+    # delta_w = a w alpha / sum(w alpha^2) and delta_1 = a alpha / sum(alpha^2): dw / (w d1) is one constant.
+    k = dw / np.where(np.abs(d1) > 1e-9, w * d1, np.nan)
+    k = k[np.isfinite(k)]
+    np.testing.assert_allclose(k, k[0], rtol=1e-9)
+    assert rw.base_volume_error < 1e-11
+
+
+def test_preserve_volume_refuses_bad_options():
+    mesh, sm = decomposition(*CASES[0])
+    C = np.array(sm.control_points)
+    M = len(C)
+    for kw, msg in [({"axes": "xw"}, "axes"), ({"axes": "xx"}, "axes"), ({"axes": ""}, "axes"),
+                    ({"weights": np.ones(M - 1)}, "weights"), ({"weights": -np.ones(M)}, "weights"),
+                    ({"weights": np.full(M, np.nan)}, "weights"), ({"fixed": np.ones(M + 1, bool)}, "fixed"),
+                    ({"fixed": np.array([M])}, "fixed")]:
+        with pytest.raises(vpffd.InvalidInputError, match=msg):
+            sm.deform(C, preserve_volume=True, **kw)
+    with pytest.raises(vpffd.SolverError, match="fixed"):
+        sm.deform(C, preserve_volume=True, fixed=np.arange(M))
+    np.testing.assert_array_equal(C, sm.control_points)
