@@ -76,7 +76,7 @@ def _volume_gradient(B, F) -> np.ndarray:
     return G / 6.0
 
 
-def preserve_base_volume(Phi, F, C, target, axes="xyz", weights=None):
+def preserve_base_volume(Phi, F, C, target, axes="xyz", weights=None, constraints=None):
     """Paper 000's volume correction with the control points as the basis: the base
     points B = Phi C (V, 3), joined by the fine faces F, get the enclosed volume
     ``target``. One step per axis of ``axes`` (in that order); each moves the control
@@ -85,22 +85,44 @@ def preserve_base_volume(Phi, F, C, target, axes="xyz", weights=None):
     the paper's weights) with alpha = Phi^T d vol / d B_axis and a = (target -
     vol(Phi C)) / len(axes) fixed before the first step: after the last step the
     volume is ``target`` to rounding. ``weights`` (M,) >= 0 (None: all 1; 0: the
-    point does not move). Returns the corrected (M, 3) control points (a new array).
-    Raises SolverError when an axis's step cannot change the volume (every point that
-    may move has alpha = 0 there)."""
+    point does not move). ``constraints``: (indices (K,), targets (K, 3)): base points
+    (Phi C)_i that must land on their targets; each axis step then solves the paper's
+    small system for the multipliers of the volume and the K constraints along that
+    axis (delta = W A^T lambda, (A W A^T) lambda = b, A = [alpha; Phi_K]), so the
+    volume and the targets hold together, exactly. Returns the corrected (M, 3)
+    control points (a new array). Raises SolverError when an axis's step cannot
+    change the volume (every point that may move has alpha = 0 there) or the
+    constraints and the volume are dependent along an axis."""
     C = np.array(C, dtype=np.float64)
     w = np.ones(len(C)) if weights is None else np.asarray(weights, dtype=np.float64)
     lo, hi = _arrays.bounds(Phi @ C)
     centre = 0.5 * (lo + hi)  # volumes about the box centre: less cancellation
     share = (target - float(_core.signed_volume(Phi @ C, F, centre, False))) / len(axes)
+    rows = None
+    if constraints is not None:
+        idx, T = constraints
+        rows = Phi[idx].toarray() if hasattr(Phi, "toarray") else np.asarray(Phi[idx])
     for name in axes:
         axis = "xyz".index(name)
         alpha = Phi.T @ _volume_gradient(Phi @ C - centre, F)[:, axis]
-        norm2 = float((w * alpha) @ alpha)
-        if not norm2 > 0:
-            raise _core.SolverError(f"preserve_volume: the volume does not depend on the {'xyz'[axis]} "
-                                    f"coordinates of the control points that may move")
-        C[:, axis] += share / norm2 * (w * alpha)
+        if rows is None:
+            norm2 = float((w * alpha) @ alpha)
+            if not norm2 > 0:
+                raise _core.SolverError(f"preserve_volume: the volume does not depend on the {'xyz'[axis]} "
+                                        f"coordinates of the control points that may move")
+            C[:, axis] += share / norm2 * (w * alpha)
+            continue
+        A = np.vstack([alpha, rows])
+        b = np.concatenate([[share], T[:, axis] - rows @ C[:, axis]])
+        G = (A * w) @ A.T
+        # Relative to its diagonal, a Gram matrix this close to singular has dependent
+        # rows: a constraint the volume or another constraint already decides.
+        d = np.sqrt(np.maximum(np.diag(G), np.finfo(float).tiny))
+        if not np.linalg.cond(G / np.outer(d, d)) < 1e12:
+            raise _core.SolverError(f"preserve_volume: along {name}, the volume and the {len(rows)} point "
+                                    f"constraints are dependent (a constrained point's control points cannot "
+                                    f"move, or two constraints pin the same points)")
+        C[:, axis] += w * (A.T @ np.linalg.solve(G, b))
     return C
 
 
@@ -275,7 +297,7 @@ class SubdivisionMultires:
 
     def deform(self, control_points, normals: str = "approximate", preserve_volume: bool = False,
                threads=None, backend: str = "auto", device=None, gpu_precision=None, axes: str = "xyz",
-               weights=None, fixed=None) -> MultiresResult:
+               weights=None, fixed=None, constraints=None) -> MultiresResult:
         """One frame from new control points (M, 3) (not modified).
 
         Returns a ``MultiresResult``: ``vertices`` p' = S'(t_i) + d_i N_S',
@@ -298,6 +320,11 @@ class SubdivisionMultires:
             paper's weights: offsets proportional to them; 0 holds a point still).
         fixed : (M,) bool mask or indices, optional
             with ``preserve_volume``: control points that must not move.
+        constraints : list of (vertex_index, (x, y, z)), optional
+            with ``preserve_volume``: fine vertices whose base point S'(t_i) must land
+            on the target (exactly, together with the volume; the fine vertex itself
+            lands d_i N_S' off it). Along an axis not in ``axes`` the target must
+            already hold.
         backend : {"auto", "cpu", "openmp", "serial", "vulkan"}
             "cpu": "openmp" where this build has it, else "serial". "vulkan": the frame (stencil sums and per-vertex rebuild) is one compute
             dispatch on a Vulkan device (``_core.VulkanSubdivFrame``): the stencils, d
@@ -321,14 +348,46 @@ class SubdivisionMultires:
                 raise InvalidInputError("SubdivisionMultires.deform: preserve_volume needs a closed mesh "
                                         "(this one has boundary, non-manifold or misoriented edges)")
             axes, w = _correction_weights(len(C), axes, weights, fixed, "SubdivisionMultires.deform")
-            C = preserve_base_volume(self._phi(), self.mesh.faces, C, self._rest_volumes[1], axes, w)
+            cons = self._constraints(constraints, C, axes)
+            C = preserve_base_volume(self._phi(), self.mesh.faces, C, self._rest_volumes[1], axes, w, cons)
             volume_mode = "base"
+        elif constraints is not None:
+            raise InvalidInputError("SubdivisionMultires.deform: constraints are solved with the volume "
+                                    "correction: pass preserve_volume=True")
         resolved, threads_core, selector = self._backend(backend, threads, device)
         if resolved == "vulkan":
             X, N, B = self._vulkan_frame(selector, gpu_precision).deform(C)
         else:
             X, N, B = self._m.deform(C, threads_core)
         return self._result(X, N, B, normals, C, volume_mode, resolved)
+
+    def _constraints(self, constraints, C, axes):
+        """Checked (indices (K,), targets (K, 3)) of point constraints, or None."""
+        if constraints is None or len(constraints) == 0:
+            return None
+        who = "SubdivisionMultires.deform: constraints"
+        try:
+            idx = np.array([int(c[0]) for c in constraints], dtype=np.int64)
+            T = np.array([np.asarray(c[1], dtype=np.float64) for c in constraints])
+        except (TypeError, ValueError, IndexError) as e:
+            raise InvalidInputError(f"{who}: expected a list of (vertex_index, (x, y, z)) pairs ({e})") from None
+        n = self.mesh.n_vertices
+        if T.shape != (len(idx), 3) or not np.isfinite(T).all():
+            raise InvalidInputError(f"{who}: each target must be 3 finite numbers")
+        if (idx < 0).any() or (idx >= n).any():
+            raise InvalidInputError(f"{who}: vertex indices must be in 0..{n - 1}")
+        if len(np.unique(idx)) != len(idx):
+            raise InvalidInputError(f"{who}: a vertex is constrained twice")
+        B = self._phi()[idx] @ C
+        size = float(np.linalg.norm(np.ptp(self.mesh.vertices, axis=0)))
+        for a in range(3):
+            if "xyz"[a] not in axes:
+                off = np.abs(B[:, a] - T[:, a])
+                if off.max() > 1e-12 * size:
+                    k = int(np.argmax(off))
+                    raise InvalidInputError(f"{who}: vertex {idx[k]}'s target differs from its base point along "
+                                            f"{'xyz'[a]}, which axes={axes!r} does not correct")
+        return idx, T
 
     def _backend(self, backend, threads, device):
         """(backend, threads for the CPU core, device selector) of a frame: "auto" is

@@ -388,3 +388,33 @@ def test_preserve_volume_refuses_bad_options():
     with pytest.raises(vpffd.SolverError, match="fixed"):
         sm.deform(C, preserve_volume=True, fixed=np.arange(M))
     np.testing.assert_array_equal(C, sm.control_points)
+
+
+@pytest.mark.parametrize("name,scheme", CASES[:2])
+def test_preserve_volume_with_point_constraints(name, scheme):
+    mesh, sm = decomposition(name, scheme)
+    C = np.array(sm.control_points)
+    C[:, 2] *= 0.8
+    base = sm.deform(C).base_vertices
+    diag = _diag(mesh.vertices)
+    i, j = int(np.argmax(base[:, 0])), int(np.argmin(base[:, 0]))
+    Ti = base[i] + [0.1 * diag, 0, 0.05 * diag]
+    Tj = base[j]  # held where the edit put it
+    r = sm.deform(C, preserve_volume=True, constraints=[(i, Ti), (j, Tj)])
+    # Exact together: the volume (as without constraints) and both base points.
+    assert r.base_volume_error < 1e-11
+    np.testing.assert_allclose(r.base_vertices[[i, j]], [Ti, Tj], rtol=0, atol=1e-12 * diag)
+    # Along z only: a target off in x is refused by name; one that moves only in z holds.
+    with pytest.raises(vpffd.InvalidInputError, match="along x"):
+        sm.deform(C, preserve_volume=True, axes="z", constraints=[(i, Ti)])
+    Tz = base[i] + [0, 0, 0.05 * diag]
+    r = sm.deform(C, preserve_volume=True, axes="z", constraints=[(i, Tz)])
+    np.testing.assert_allclose(r.base_vertices[i], Tz, rtol=0, atol=1e-12 * diag)
+    assert r.base_volume_error < 1e-11
+    # Bad constraints.
+    for cons, msg in [([(mesh.n_vertices, Ti)], "indices"), ([(i, Ti), (i, Tj)], "twice"),
+                      ([(i, [0, np.nan, 0])], "finite"), ([(i, [1, 2])], "3 finite")]:
+        with pytest.raises(vpffd.InvalidInputError, match=msg):
+            sm.deform(C, preserve_volume=True, constraints=cons)
+    with pytest.raises(vpffd.InvalidInputError, match="preserve_volume=True"):
+        sm.deform(C, constraints=[(i, Ti)])
