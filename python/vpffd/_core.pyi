@@ -390,6 +390,11 @@ class RbfRegions:
         (H, 3) constraint targets of the K (4, 4) transforms.
         """
     @property
+    def basis(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, n]"]:
+        """
+        (n_free, 16 K) the precomputed basis of the free vertices (labels == 0, ascending).
+        """
+    @property
     def constraint_points(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
         ...
     @property
@@ -534,6 +539,39 @@ class VulkanSubdivFrame:
         ...
     @property
     def n_control(self) -> int:
+        ...
+    @property
+    def n_vertices(self) -> int:
+        ...
+    @property
+    def origin(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[3, 1]"]:
+        ...
+    @property
+    def precision(self) -> str:
+        ...
+    @property
+    def scale(self) -> float:
+        ...
+class VulkanRbfFrame:
+    """
+    The RBF regions frame (paper 002 §6) on a Vulkan device, from an RbfRegions setting.
+    """
+    def __init__(self, regions: RbfRegions, device: str = '', precision: str = 'auto') -> None:
+        ...
+    def deform(self, transforms: collections.abc.Sequence[typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[4, 4]"]]) -> tuple[typing.Any, typing.Any, typing.Any]:
+        """
+        (vertices (V, 3), unit normals (V, 3), base vertices (V, 3)) for K (4, 4) affine maps, as RbfRegions.deform.
+        """
+    def last_timings(self) -> dict:
+        ...
+    @property
+    def device(self) -> dict:
+        ...
+    @property
+    def n_free(self) -> int:
+        ...
+    @property
+    def n_regions(self) -> int:
         ...
     @property
     def n_vertices(self) -> int:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _arrays, _core
+from .backends import _requested_precision, _resolve_backend
 from .multires import _check_multires, _check_normals, _result, _threads_arg
 
 InvalidInputError = _core.InvalidInputError
@@ -225,26 +226,64 @@ class RBFDeformer:
         T = _arrays.points(targets, "RBFDeformer: targets", rows=self.n_handles)
         return self._rbf.solve(T)
 
-    def deform(self, targets=None, normals: str = "approximate", *, transforms=None):
+    def deform(self, targets=None, normals: str = "approximate", *, transforms=None, backend: str = "auto",
+               device=None, gpu_precision=None):
         """One frame (MultiresResult; ``control_points`` is None).
 
         General mode: ``targets`` (H, 3), each handle's image (world units).
         Regions mode: ``transforms`` (K, 4, 4) (or (4, 4) for K = 1), one affine map
         per handle region, last row (0, 0, 0, 1). Neither is modified.
+
+        backend : {"auto", "cpu", "openmp", "serial", "vulkan"}
+            "cpu": "openmp" where this build has it, else "serial". "vulkan" (regions
+            mode only): the frame is one compute dispatch on a Vulkan device
+            (``_core.VulkanRbfFrame``): labels, rest points, the basis (16 K reals per
+            free vertex), d and the coefficients are uploaded on the first such frame
+            and kept; a frame uploads the K maps and reads back vertices, normals and
+            base vertices (float32). Positions agree with the CPU to a few float32
+            roundings of the mesh's size (see tests/python/test_rbf_regions_vulkan.py).
+            "auto" is the CPU unless a device is named (``device`` or
+            VPFFD_VULKAN_DEVICE).
+        device : int or str, optional
+            "vulkan": the device (index or part of its name), as ``Deformer``.
+        gpu_precision : {"auto", "float64", "float-float"}, optional
+            "vulkan": how the device forms the affine sums, as ``Deformer``.
         """
         _check_normals(normals)
+        if backend == "cpu":  # the CPU frame, threaded where this build has OpenMP
+            backend = _backend()
+        resolved, _, selector = _resolve_backend(backend, None, device, n_vertices=0)
         if self._regions is not None:
             if targets is not None:
                 raise InvalidInputError("RBFDeformer.deform: regions mode takes transforms=, not targets")
-            X, N, B = self._regions.deform(_transforms(transforms, self.n_regions), self._threads)
+            T = _transforms(transforms, self.n_regions)
+            if resolved == "vulkan":
+                X, N, B = self._vulkan_frame(selector, gpu_precision).deform(T)
+            else:
+                X, N, B = self._regions.deform(T, self._threads)
         else:
             if transforms is not None:
                 raise InvalidInputError("RBFDeformer.deform: general mode takes targets, not transforms= "
                                         "(give deformable/handle_regions for the regions mode)")
+            if resolved == "vulkan" and backend == "vulkan":
+                raise InvalidInputError("RBFDeformer.deform: backend 'vulkan' runs the regions mode only "
+                                        "(deformable/handle_regions); the general mode is a CPU frame")
+            resolved = _backend()  # "auto" with a named device: the general mode stays on the CPU
             W = self._solve(targets)
             X, N = self._rbf.deform(self.multires._m, W, self._threads)
             B = self._rbf.map(W, self.multires.base.vertices, self._threads)
-        return _result(self.multires, X, N, B, normals, None, "none", _backend())
+        return _result(self.multires, X, N, B, normals, None, "none",
+                       "vulkan" if resolved == "vulkan" else _backend())
+
+    def _vulkan_frame(self, selector, gpu_precision):
+        """The device frame for (device, precision), made on first use and kept (its
+        set-up uploads the basis and compiles the pipeline)."""
+        precision = _requested_precision(gpu_precision)
+        frames = self.__dict__.setdefault("_vulkan_frames", {})
+        key = (selector, precision)
+        if key not in frames:
+            frames[key] = _core.VulkanRbfFrame(self._regions, selector or "", precision)
+        return frames[key]
 
     def map(self, points, targets) -> np.ndarray:
         """General mode: (n, 3) images of rest-space ``points`` under the map for ``targets``."""

@@ -206,6 +206,8 @@ void bind_multires(py::module_& m) {
                                                                 r.constraint_regions().data());
                              })
       .def_property_readonly("constraint_points", &RbfRegions::constraint_points)
+      .def_property_readonly("basis", &RbfRegions::basis,
+                             "(n_free, 16 K) the precomputed basis of the free vertices (labels == 0, ascending).")
       .def(
           "targets",
           [](const RbfRegions& r, const std::vector<Matrix4d>& T) { return r.targets(T); }, py::arg("transforms"),

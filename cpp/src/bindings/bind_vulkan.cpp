@@ -1,6 +1,7 @@
 // The Vulkan backend: _core.VulkanDeformer (deform() as _core.Deformer.deform),
 // _core.VulkanMultires (deform() as _core.MultiresFFD.deform), _core.VulkanSubdivFrame
-// (deform() as _core.SubdivisionMultires.deform, from plain arrays) and _core.vulkan_devices().
+// (deform() as _core.SubdivisionMultires.deform, from plain arrays), _core.VulkanRbfFrame (deform() as
+// _core.RbfRegions.deform) and _core.vulkan_devices().
 
 #include <optional>
 
@@ -8,7 +9,9 @@
 #include "vpffd/frame/deformer.h"
 #include "vpffd/backend/vulkan.h"
 #include "vpffd/backend/vulkan_multires.h"
+#include "vpffd/backend/vulkan_rbf.h"
 #include "vpffd/backend/vulkan_subdiv.h"
+#include "vpffd/multires/rbf_regions.h"
 
 namespace vpffd::bindings {
 
@@ -316,6 +319,73 @@ void bind_vulkan(py::module_& m) {
           py::arg("control_points"),
           "(vertices (V, 3), approximate unit normals (V, 3), limit points S'(t_i) (V, 3)), as "
           "SubdivisionMultires.deform.");
+
+  using vulkan::VulkanRbfFrame;
+  py::class_<VulkanRbfFrame, std::unique_ptr<VulkanRbfFrame>>(
+      m, "VulkanRbfFrame", "The RBF regions frame (paper 002 §6) on a Vulkan device, from an RbfRegions setting.")
+      .def(py::init([](const RbfRegions& r, const std::string& device, const std::string& precision) {
+             const vulkan::Precision prec = vulkan::parse_precision(precision);
+             const Multires& mr = r.multires();
+             const Index nv = mr.n_vertices();
+             // The decomposition's SoA rest data as the view's V x 3 and V x 6 arrays.
+             std::vector<double> foot(3 * nv), su(3 * nv), sv(3 * nv), d(nv), coef(6 * nv);
+             for (Index i = 0; i < nv; ++i) {
+               for (int a = 0; a < 3; ++a) {
+                 foot[3 * i + a] = mr.foot[a][i];
+                 su[3 * i + a] = mr.su[a][i];
+                 sv[3 * i + a] = mr.sv[a][i];
+               }
+               d[i] = mr.d[i];
+               for (int k = 0; k < 6; ++k) coef[6 * i + k] = mr.coef[k][i];
+             }
+             vulkan::RbfRegionsView s;
+             s.n_vertices = nv;
+             s.n_regions = r.n_regions();
+             s.labels = r.labels().data();
+             s.basis = r.basis().data();
+             s.foot = foot.data();
+             s.su = su.data();
+             s.sv = sv.data();
+             s.fine = mr.fine.data();
+             s.normals = mr.rest_normals.data();
+             s.base = mr.base.data();
+             s.d = d.data();
+             s.coef = coef.data();
+             py::gil_scoped_release release;
+             return std::make_unique<VulkanRbfFrame>(s, device, prec);
+           }),
+           py::arg("regions"), py::arg("device") = "", py::arg("precision") = "auto")
+      .def_property_readonly("device", [](const VulkanRbfFrame& f) { return device_to_python(f.device()); })
+      .def_property_readonly("origin", &VulkanRbfFrame::origin)
+      .def_property_readonly("scale", &VulkanRbfFrame::scale)
+      .def_property_readonly("n_vertices", &VulkanRbfFrame::n_vertices)
+      .def_property_readonly("n_regions", &VulkanRbfFrame::n_regions)
+      .def_property_readonly("n_free", &VulkanRbfFrame::n_free)
+      .def_property_readonly(
+          "precision", [](const VulkanRbfFrame& f) { return std::string(vulkan::precision_name(f.precision())); })
+      .def("last_timings",
+           [](const VulkanRbfFrame& f) {
+             vulkan::FrameTimings t;
+             {
+               py::gil_scoped_release release;
+               t = f.last_timings();
+             }
+             return timings_to_python(t);
+           })
+      .def(
+          "deform",
+          [](VulkanRbfFrame& f, const std::vector<Eigen::Matrix4d>& T) {
+            vulkan::RbfDeviceFrame r;
+            {
+              py::gil_scoped_release release;
+              r = f.deform(T);
+            }
+            return py::make_tuple(py::cast(std::move(r.vertices)), py::cast(std::move(r.normals)),
+                                  py::cast(std::move(r.base)));
+          },
+          py::arg("transforms"),
+          "(vertices (V, 3), unit normals (V, 3), base vertices (V, 3)) for K (4, 4) affine maps, as "
+          "RbfRegions.deform.");
 }
 
 }  // namespace vpffd::bindings

@@ -198,6 +198,10 @@ class RbfRegions {
   const RowMatrixX3d& constraint_points() const { return points_; }
   /// Doubles kept per free vertex: alpha_k at the foot point and base vertex, and along S_u, S_v.
   Index doubles_per_free_vertex() const { return 16 * n_regions_; }
+  /// The precomputed basis, #free x 16K (free vertices ascending, the labels' zeros):
+  /// per row [alpha_k(S) | along S_u | along S_v | alpha_k(base)], 4 doubles per k, world
+  /// units (what a device frame uploads).
+  const RowMatrixXd& basis() const { return coef_; }
 
   /// The constraint targets of the transforms T (K maps): T_k h_j, or h_j for fixed
   /// points (H x 3): the general RBF solve that a frame equals.
