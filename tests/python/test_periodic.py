@@ -274,10 +274,13 @@ def test_fold_check_covers_the_seam():
     assert rep.folded
 
 
-def test_multires_refuses_periodic_lattices():
+def test_multires_takes_periodic_lattices_on_the_cpu():
+    # (test_multires_periodic.py checks the frames; the Vulkan refusal is tested there.)
     mr = vpffd.Multires(vpffd.shapes.bumpy_sphere(2, 0.3))
-    with pytest.raises(InvalidInputError, match="periodic"):
-        vpffd.MultiresDeformer(mr, _lattice("closed"))
+    lat = _lattice("closed")
+    r = vpffd.MultiresDeformer(mr, lat, backend="serial").deform(lat.control_points, preserve_volume=False)
+    diag = float(np.linalg.norm(np.ptp(mr.mesh.vertices, axis=0)))
+    assert np.abs(r.vertices - mr.mesh.vertices).max() <= 1e-12 * diag
 
 
 # --- moving rest positions ------------------------------------------------------------
