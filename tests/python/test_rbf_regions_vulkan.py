@@ -34,6 +34,7 @@ import vpffd
 from vpffd.normals import angles_deg
 from test_vulkan import DEVICE, SEL
 from test_vulkan import precision  # noqa: F401 (the fixture: both precisions, float64 where the device has it)
+from test_rbf_regions import _affine, _rot
 
 pytestmark = pytest.mark.skipif(DEVICE is None, reason="no Vulkan backend in this build or no suitable device")
 
@@ -42,19 +43,6 @@ U32 = 2.0 ** -24
 
 def _norm(x):
     return np.linalg.norm(x, axis=-1)
-
-
-def _affine(A, t):
-    T = np.eye(4)
-    T[:3, :3] = A
-    T[:3, 3] = t
-    return T
-
-
-def _rot(a, axis=(1.0, 2.0, 3.0)):
-    k = np.asarray(axis) / np.linalg.norm(axis)
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(a) * K + (1 - np.cos(a)) * K @ K
 
 
 def rbf_bounds(rd, frame, T):
