@@ -154,6 +154,39 @@ TEST_P(CpuThreads, FramesSeeOneRestState) {
 
 INSTANTIATE_TEST_SUITE_P(Moves, CpuThreads, ::testing::Values("positions", "offsets"));
 
+// A rest state held by a caller (as a frame in flight holds it) stays what it was while
+// the deformer moves on: its buffers are not recycled into later states, and a frame
+// run on it later is the frame of that state, bit for bit. States nobody holds are
+// recycled; the frames of the states built in their buffers are a fresh deformer's.
+TEST(RestStates, HeldStateOutlivesMoves) {
+  const Stress s = scene();
+  Deformer d(s.V, s.F, s.L);
+  const CorrectionOptions opt = kept_options();
+  const std::shared_ptr<const RestState> held = d.rest_state();
+  const DeformResult before = frame::run_frame(d.topology(), *held, s.P, opt, nullptr);
+  const RowMatrixX3d half = 0.5 * s.O1;
+  const RowMatrixX3d X2 = s.V.rowwise() - half.row(0);
+  for (int k = 0; k < 8; ++k) {  // positions and offsets, back and forth
+    if (k % 2 == 0)
+      d.set_rest_vertices(k % 4 == 0 ? s.X1 : X2, 1);
+    else
+      d.set_rest_offsets(k % 4 == 1 ? half : RowMatrixX3d(-half), 1);
+  }
+  EXPECT_NE(d.rest_state(), held);
+  EXPECT_TRUE(same(*held->V, s.V));
+  const DeformResult again = frame::run_frame(d.topology(), *held, s.P, opt, nullptr);
+  EXPECT_TRUE(same(again.vertices, before.vertices));
+  EXPECT_EQ(again.volume, before.volume);
+  // The last move: offsets -O1/2 from the base X2 (set by the set_rest_vertices before
+  // it). Frames that keep the volume aim at the base's rest volume there (rounding
+  // apart, the fresh one's): compared on plain frames.
+  const RowMatrixX3d last = X2.rowwise() - half.row(0);
+  Deformer fresh(last, s.F, s.L);
+  const CorrectionOptions plain = plain_options();
+  EXPECT_TRUE(same(d.deform(s.P, plain).vertices, fresh.deform(s.P, plain).vertices));
+  EXPECT_TRUE(same(d.ffd(s.P, 1), fresh.ffd(s.P, 1)));
+}
+
 // A move that is refused (a vertex outside the box) changes nothing, under threads too.
 TEST(CpuThreadsRefused, RefusedMovesLeaveFramesAlone) {
   const Stress s = scene();

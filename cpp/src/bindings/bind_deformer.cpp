@@ -14,8 +14,8 @@ namespace {
 /// The paper's face matrix with its columns in the mesh's own face order (Python's
 /// face_matrix: column j is face j of the caller's faces).
 CsrMatrix face_matrix_in_face_order(const Deformer& d, int threads) {
-  const auto frame = d.read_lock();  // A lives until the next move
-  const CsrMatrix& A = d.face_matrix(threads);
+  const auto state = d.rest_state();  // A lives as long as the state
+  const CsrMatrix& A = face_matrix(d.topology(), *state, threads);
   const std::vector<std::int32_t>& fo = d.face_processing_order();
   CsrMatrix B = A;
   parallel_range(A.rows, threads, [&](Index b, Index e) {
@@ -72,8 +72,7 @@ void bind_deformer(py::module_& m) {
       .def_property_readonly("rest_vertices",
                              [](const Deformer& d) {
                                py::gil_scoped_release release;
-                               const auto frame = d.read_lock();  // no move during the copy
-                               return RowMatrixX3d(d.rest_vertices());
+                               return RowMatrixX3d(*d.rest_state()->V);
                              })
       .def_property_readonly("has_parts", &Deformer::has_parts)
       .def_property_readonly("n_parts", &Deformer::n_parts)
@@ -182,8 +181,8 @@ void bind_deformer(py::module_& m) {
           "face_matrix_nnz",
           [](const Deformer& d, int threads) {
             py::gil_scoped_release release;
-            const auto frame = d.read_lock();
-            return d.face_matrix(threads).nnz();
+            const auto state = d.rest_state();
+            return face_matrix(d.topology(), *state, threads).nnz();
           },
           py::arg("threads") = 0)
       .def(

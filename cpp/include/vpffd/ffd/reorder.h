@@ -67,7 +67,7 @@ inline VertexFans permute_fans(const VertexFans& f, const std::vector<std::int32
 /// permute_fans for the padded layout, into `out` (its buffers reused when they have
 /// the size already): rows and tails relabelled (a row's padding, the vertex itself,
 /// becomes its new index, as padding it afresh would give). A Deformer's move
-/// relabels in place instead (relabel_fans): its rows keep their vertices.
+/// relabels instead (relabelled_fans): its rows keep their vertices.
 inline void permute_fans_into(const PaddedFans& f, const std::vector<std::int32_t>& from,
                               const std::vector<std::int32_t>& to, PaddedFans& out, int threads = 0) {
   out.width = f.width;
@@ -92,6 +92,22 @@ inline void relabel_fans(PaddedFans& f, const std::vector<std::int32_t>& to, int
     for (Index k = b * w; k < e * w; ++k) f.head[k] = to[f.head[k]];
     for (Index k = f.tail_ptr[b]; k < f.tail_ptr[e]; ++k) f.tail[k] = to[f.tail[k]];
   });
+}
+
+/// relabel_fans into a copy: the source stays as it is (a deformer's older rest state
+/// may still be read by frames in flight).
+inline PaddedFans relabelled_fans(const PaddedFans& f, const std::vector<std::int32_t>& to, int threads = 0) {
+  PaddedFans out;
+  out.width = f.width;
+  out.head.resize(f.head.size());
+  out.tail_ptr = f.tail_ptr;
+  out.tail.resize(f.tail.size());
+  const Index n = f.size(), w = f.width;
+  parallel_range(n, threads, [&](Index b, Index e) {
+    for (Index k = b * w; k < e * w; ++k) out.head[k] = to[f.head[k]];
+    for (Index k = f.tail_ptr[b]; k < f.tail_ptr[e]; ++k) out.tail[k] = to[f.tail[k]];
+  });
+  return out;
 }
 
 inline PaddedFans permute_fans(const PaddedFans& f, const std::vector<std::int32_t>& from,
