@@ -544,7 +544,7 @@ class Deformer {
     // straight into the processing order sorted by these cells. (This replaced
     // embedding into the previous order, reading the cells back and permuting the six
     // arrays; with the vectorised embedding loops a move became 0.73-0.82x as costly,
-    // bench/results/move_ab_vm.md.)
+    // bench/results/vm/move_ab_vm.md.)
     std::vector<std::int32_t>& cell = spare_cells_;
     try {
       embed_cells(lattice_, V, policy_, cell, threads, "vertex");
@@ -1052,7 +1052,7 @@ class Deformer {
   /// order, so the results do not depend on it. Dragon, xyz frame: 0.82x on a quiet
   /// VM, but up to ~1.1x on 1 thread under memory contention, where the separate
   /// weight pass's traffic costs: 8 % fewer instructions, 18 % more last-level
-  /// misses, all sequential (cachegrind counts; bench/results/frame_ab_vm.md).
+  /// misses, all sequential (cachegrind counts; bench/results/vm/frame_ab_vm.md).
   mutable std::vector<std::int32_t> weight_order_;
   std::vector<std::int32_t> face_order_;  ///< face processing position -> face (fixed: set_face_order)
   Embedding embedding_;              ///< in processing order
