@@ -216,18 +216,24 @@ def _doc_markdown(lines):
     return out
 
 
+def documented(e):
+    """Whether an entity or one of its members carries a comment."""
+    return bool(e.doc) or any(documented(c) for c in e.children)
+
+
 def _entity_markdown(e, depth, member=False):
     out = []
-    if e.kind == "class" and e.children:
+    if e.kind == "class" and any(map(documented, e.children)):
         out += [f"{'#' * depth} `{_without_template(e.decl).strip()}`", ""]
     body = _doc_markdown(e.doc)
-    if member and not e.children and len(body) <= 2 and "`" not in e.decl and len(e.decl) < 100:
+    if member and not any(map(documented, e.children)) and len(body) <= 2 and "`" not in e.decl and len(e.decl) < 100:
         # a field or enumerator with a one-line comment: one list item, not a block
         return [f"- `{e.decl}`: {body[0] if body else ''}", ""]
     out += ["```cpp", e.decl, "```", ""] + body
     for c in e.children:
-        if c.doc or c.children:
-            out += _entity_markdown(c, depth + 1 if c.kind == "class" and c.children else depth, True)
+        if documented(c):
+            nested = c.kind == "class" and any(map(documented, c.children))
+            out += _entity_markdown(c, depth + 1 if nested else depth, True)
     return out
 
 
@@ -249,7 +255,7 @@ def render(include_dir=ROOT / "cpp" / "include"):
         file_doc, entities = parse_header(h.read_text(encoding="utf-8"))
         out += [f"### `{rel}`", ""] + _doc_markdown(file_doc)
         for e in entities:
-            if e.doc or e.children:
+            if documented(e):
                 out += _entity_markdown(e, 4)
     return "\n".join(out) + "\n"
 

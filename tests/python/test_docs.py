@@ -61,7 +61,7 @@ enum class Mode { A, B };  // undocumented: left out
 }  // namespace vpffd
 ''')
     assert file_doc == ["What x is."]
-    assert [e.decl for e in entities if e.doc or e.children] == ["struct Thing"]
+    assert [e.decl for e in entities if gen.documented(e)] == ["struct Thing"]
     thing = entities[0]
-    assert [(c.decl, c.doc) for c in thing.children] == [
+    assert [(c.decl, c.doc) for c in thing.children if gen.documented(c)] == [
         ("int a = 0", ["the a"]), ("void run(int n)", ["Does it.", "@param n  how many"])]
