@@ -6,11 +6,11 @@
 #
 #   bash bench/gpu_machine.sh [tests] [table] [table-ff] [scaling] [motion]
 #
-# Results go to $OUT (or bench/results when OUT is unset); the module is built once per
-# machine into /tmp/vpffd-site. Table 2 reads the meshes of $VPFFD_SHARED_MESHES.
+# Results go to $OUT (default bench/results/<gpu>, named after the first discrete GPU:
+# h100, h200, ...); the module is built once per machine into /tmp/vpffd-site. Table 2
+# reads the meshes of $VPFFD_SHARED_MESHES.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-bench/results}
 # The NVIDIA Vulkan driver (libGLX_nvidia) needs glvnd's dispatch libraries.
 for f in .gl/*.deb; do dpkg -x "$f" /; done
 mkdir -p /tmp/sys
@@ -34,6 +34,14 @@ if ! python3 -c "import vpffd; print(vpffd.vulkan_devices())" | grep -q "'discre
   export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 fi
 python3 -c "import vpffd; print(vpffd.vulkan_devices())"
+# One folder per machine: "NVIDIA H100 80GB HBM3" -> h100 (the model's number).
+OUT=${OUT:-bench/results/$(python3 -c "
+import re, vpffd
+names = [d['name'] for d in vpffd.vulkan_devices() if d['type'] == 'discrete'] or ['gpu']
+m = re.search(r'\b([A-Za-z]*\d{2,4}[A-Za-z]*)\b', names[0])
+print((m.group(1) if m else re.sub(r'\W+', '_', names[0])).lower())")}
+mkdir -p "$OUT"
+export VPFFD_BENCH_MACHINE=${OUT##*/}
 for what in "${@:-table}"; do
   case $what in
     tests) python3 -m pytest -q -p no:cacheprovider tests/python/test_vulkan*.py tests/python/test_multires_vulkan.py \
@@ -41,7 +49,7 @@ for what in "${@:-table}"; do
     table) python3 bench/python/bench_gpu.py --out $OUT ;;
     table-ff) python3 bench/python/bench_gpu.py --precision float-float --out $OUT ;;
     scaling) python3 bench/python/bench_gpu.py --scaling --max-subdiv 9 --out $OUT ;;
-    motion) python3 bench/python/bench_motion.py --md $OUT/motion_gpu.md ;;
+    motion) python3 bench/python/bench_motion.py --md "$OUT/motion_$VPFFD_BENCH_MACHINE.md" ;;
     *) echo "gpu_machine.sh: unknown step '$what' (tests, table, table-ff, scaling, motion)" >&2; exit 2 ;;
   esac
 done

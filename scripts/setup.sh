@@ -33,9 +33,10 @@ if [ ! -x "$VENV/bin/python" ]; then
 fi
 PY="$VENV/bin/python"
 # Python packages only when one is missing: a second run needs no network.
-if ! "$PY" -c "import numpy, scipy, pytest, pybind11, scikit_build_core, cmake, ninja, matplotlib, PIL, trimesh" 2>/dev/null; then
+# mkdocs, material and mkdocstrings build the documentation site (docs/, mkdocs.yml).
+if ! "$PY" -c "import numpy, scipy, pytest, pybind11, scikit_build_core, cmake, ninja, matplotlib, PIL, trimesh, mkdocs, material, mkdocstrings_handlers.python" 2>/dev/null; then
   "$PY" -m pip install -q --upgrade pip >/dev/null
-  "$PY" -m pip install -q numpy scipy pytest pybind11 scikit-build-core cmake ninja matplotlib pillow trimesh
+  "$PY" -m pip install -q numpy scipy pytest pybind11 scikit-build-core cmake ninja matplotlib pillow trimesh mkdocs mkdocs-material "mkdocstrings[python]"
 fi
 # A non-isolated build reuses the build folder between runs (fast rebuilds).
 echo "setup: building vpffd (C++ core, bindings)"

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# All tests: the C++ suite through ctest, then the Python suite through pytest.
+# All tests: the C++ suite through ctest, the documentation site, then the Python suite
+# through pytest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -15,4 +16,7 @@ cmake --build build/example
 build/example/squash_sphere
 if [ -x build/example/gpu_frame ]; then build/example/gpu_frame; fi
 if [ -x build/example/mesh_file ]; then build/example/mesh_file; fi
+# The documentation site, strictly (broken links and anchors fail; offline, ~3 s).
+echo "test: building the documentation site into build/site"
+NO_MKDOCS_2_WARNING=1 python -m mkdocs build --strict --quiet --site-dir build/site
 python -m pytest tests/python -q "$@"

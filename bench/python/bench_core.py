@@ -7,11 +7,13 @@ Prints a markdown table (medians of --repeats runs, one process, one run), then
 where an xyz frame's time goes (FFD, coefficient passes, solves, gathers, volume,
 reordering: the frame's own per-pass clocks, medians) with the load average, what
 the options normals=True, weights="auto" and on_fold="warn" add to a frame, and
-writes bench/results/cpu_<host>.json. For the side-by-side comparison with
+writes bench/results/<machine>/cpu_<machine>.json (machine: $VPFFD_BENCH_MACHINE, else
+the host name). For the side-by-side comparison with
 Blender's Lattice modifier see bench_peers.py. The meshes of ../shared/data/meshes are
 used when present; the icospheres are generated in code.
 """
 import argparse
+import os
 import platform
 from pathlib import Path
 
@@ -23,9 +25,11 @@ def main():
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--no-shared", action="store_true", help="only the generated meshes")
     ap.add_argument("--no-csr", action="store_true", help="skip the paper's matrix (it needs ~1.4 GB for the dragon)")
-    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "results" /
-                                         f"cpu_{platform.node() or 'host'}.json"))
+    machine = os.environ.get("VPFFD_BENCH_MACHINE") or platform.node() or "host"
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "results" / machine /
+                                         f"cpu_{machine}.json"))
     a = ap.parse_args()
+    Path(a.out).parent.mkdir(parents=True, exist_ok=True)  # a new machine's folder
     run_benchmark(include_shared=not a.no_shared, repeats=a.repeats, with_csr=not a.no_csr, out=a.out)
 
 

@@ -7,7 +7,7 @@ needed subdivision.
 
 Prints a markdown table (medians of --repeats runs in one process) with the
 machine and its load average, and writes it as JSON (default
-bench/results/folds_<host>.json).
+bench/results/<machine>/folds_<machine>.json; machine: $VPFFD_BENCH_MACHINE, else the host name).
 """
 import argparse
 import json
@@ -41,8 +41,9 @@ def main():
     ap.add_argument("--repeats", type=int, default=9)
     ap.add_argument("--threads", type=int, default=None, help="OpenMP threads (default all)")
     ap.add_argument("--depth", type=int, default=vpffd.folds.DEFAULT_DEPTH)
-    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "results" /
-                                         f"folds_{platform.node() or 'host'}.json"))
+    machine = os.environ.get("VPFFD_BENCH_MACHINE") or platform.node() or "host"
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "results" / machine /
+                                         f"folds_{machine}.json"))
     a = ap.parse_args()
     rows = []
     load = os.getloadavg()
@@ -63,6 +64,7 @@ def main():
             print(f"| {n}^3 cubic | {rep.n_cells} | {name} | {verdict} | {rep.n_refined} | {rep.n_subcells} | "
                   f"{ms:.2f} | {1e3 * ms / rep.n_cells:.1f} |")
     out = Path(a.out)
+    out.parent.mkdir(parents=True, exist_ok=True)  # a new machine's folder
     out.parent.mkdir(parents=True, exist_ok=True)
     write_text(out, json.dumps(dict(machine=platform.processor() or platform.machine(), cores=os.cpu_count(),
                                    threads=a.threads or vpffd._core.max_threads(), load_average=load,

@@ -4,7 +4,7 @@ over, for the default decomposition and for the affine frames on the faired base
 representation before exact foot points).
 
     .venv/bin/python bench/python/bench_foot_points.py [--meshes armadillo horse ...]
-        [--out bench/results/foot_points_vm.md]
+        [--out bench/results/<machine>/foot_points_<machine>.md]
 
 A face counts as turned over when its deformed normal points against the space map's
 image of its rest normal, cof(J) n0 (J of the plain FFD, averaged over its corners):
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import platform
 import sys
 import time
 from pathlib import Path
@@ -91,11 +92,13 @@ def run(names, out: Path) -> None:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--meshes", nargs="+", default=list(FILES), choices=list(FILES))
-    p.add_argument("--out", type=Path, default=ROOT / "bench" / "results" / "foot_points_vm.md")
+    machine = os.environ.get("VPFFD_BENCH_MACHINE") or platform.node() or "host"
+    p.add_argument("--out", type=Path, default=ROOT / "bench" / "results" / machine / f"foot_points_{machine}.md")
     a = p.parse_args(argv)
     if not SHARED.is_dir():
         print(f"needs {SHARED}", file=sys.stderr)
         return 2
+    Path(a.out).parent.mkdir(parents=True, exist_ok=True)  # a new machine's folder
     run(a.meshes, a.out)
     return 0
 

@@ -31,8 +31,9 @@ scikit-build-core installed) the module is built from this tree with carried
 Debian packages: see bench/README.md.
 
 On lavapipe (the CPU Vulkan driver) only correctness counts: its table is printed
-too, but says nothing about GPU speed. Results go to bench/results/gpu_<device>.csv/.json
-(--scaling: gpu_scaling_<device>.csv/.json).
+too, but says nothing about GPU speed. Results go to
+bench/results/<machine>/gpu_<device>.csv/.json (--scaling: gpu_scaling_<device>.csv/.json;
+machine: $VPFFD_BENCH_MACHINE, else the host name; bench/gpu_machine.sh names it after the GPU).
 """
 from __future__ import annotations
 
@@ -285,7 +286,7 @@ def main(argv=None):
     ap.add_argument("--precision", default="auto", choices=["auto", "float64", "float-float"],
                     help="how the device sums (default auto: float64 where the device has it); the result files "
                          "of float-float runs end in _ff")
-    ap.add_argument("--out", default=str(ROOT / "bench" / "results"))
+    ap.add_argument("--out", default=str(ROOT / "bench" / "results" / (os.environ.get("VPFFD_BENCH_MACHINE") or platform.node() or "host")))
     ap.add_argument("--scaling", action="store_true",
                     help="time per frame against triangles on icospheres built in code (see above)")
     ap.add_argument("--max-subdiv", type=int, default=9,

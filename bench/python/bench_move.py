@@ -14,7 +14,7 @@ frame, which never comes here.
 
 Without --mesh: an icosphere of the given level (7: 163,842 vertices). Prints the
 median milliseconds per move and the load average. To compare two builds, run it
-with each in turn (bench/results/lazy_rest_volume_vm.md).
+with each in turn (bench/results/vm/lazy_rest_volume_vm.md).
 """
 import argparse
 import os

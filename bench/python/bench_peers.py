@@ -27,7 +27,8 @@ The two lattices are not the same function: Blender's B-spline lattice is unifor
 with its end points repeated, vpffd's is clamped (open-uniform), so the deformed
 shapes differ slightly; the work per vertex is the same (64 control points).
 
-Results: bench/results/peers_<host>.json and .csv. Without ./.venv-peers (and
+Results: bench/results/<machine>/peers_<machine>.json and .csv (machine: $VPFFD_BENCH_MACHINE,
+else the host name). Without ./.venv-peers (and
 without --install-peers) only the vpffd columns are measured.
 
 PyGeM (mathLab's FFD in Python) is not measured: it is not on PyPI, where the name
@@ -219,7 +220,8 @@ def main():
     ap.add_argument("--cpus", default=None, help="CPUs both sides run on, e.g. 0,1 (default: the first two)")
     ap.add_argument("--no-shared", action="store_true", help="only the generated icospheres")
     ap.add_argument("--no-blender", action="store_true", help="only vpffd")
-    ap.add_argument("--out", default=str(ROOT / "bench" / "results" / f"peers_{platform.node() or 'host'}"),
+    machine = os.environ.get("VPFFD_BENCH_MACHINE") or platform.node() or "host"
+    ap.add_argument("--out", default=str(ROOT / "bench" / "results" / machine / f"peers_{machine}"),
                     help="results path without extension (.json and .csv are written)")
     args = ap.parse_args()
     if args.install_peers:
@@ -255,6 +257,7 @@ def main():
           f"after {head['load_after']}")
     from vpffd._files import open_replacing, write_text  # checked writes: a failure leaves the old file
     out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)  # a new machine's folder
     out.parent.mkdir(parents=True, exist_ok=True)
     write_text(out.with_suffix(".json"), json.dumps(dict(head, rows=rows), indent=1))
     keys = list(rows[0].keys()) if rows else []

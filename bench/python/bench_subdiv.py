@@ -24,7 +24,8 @@ no volumes). Then the decomposition time (2 threads, once) and the bytes per
 vertex: what a full frame reads, and what a group holds. The Vulkan frame
 (`deform(backend="vulkan")`) is not timed here: on a machine without a GPU its only
 device is lavapipe, a CPU driver, whose times say nothing about a GPU.
-Writes the markdown table to --out (default bench/results/subdiv_vm.md) and stdout.
+Writes the markdown table to --out (default bench/results/<machine>/subdiv_<machine>.md;
+machine: $VPFFD_BENCH_MACHINE, else the host name) and stdout.
 """
 import argparse
 import os
@@ -133,7 +134,8 @@ def main():
     ap.add_argument("--repeats", type=int, default=15)
     ap.add_argument("--no-shared", action="store_true", help="meshes made in code only")
     ap.add_argument("--no-dragon", action="store_true", help="skip the dragon (its decomposition takes longest)")
-    ap.add_argument("--out", default=str(ROOT / "bench" / "results" / "subdiv_vm.md"))
+    machine = os.environ.get("VPFFD_BENCH_MACHINE") or platform.node() or "host"
+    ap.add_argument("--out", default=str(ROOT / "bench" / "results" / machine / f"subdiv_{machine}.md"))
     a = ap.parse_args()
     if not vpffd.subdivision.available():
         raise SystemExit("bench_subdiv: this build has no vpffd::subdiv (install libosd-dev and rebuild)")
@@ -180,6 +182,7 @@ def main():
         out(n)
     out("")
     out(f"load average at the end: {load()}")
+    Path(a.out).parent.mkdir(parents=True, exist_ok=True)  # a new machine's folder
     Path(a.out).write_text("\n".join(lines) + "\n")
 
 

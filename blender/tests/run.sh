@@ -9,6 +9,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 VENV=${VPFFD_BLENDER_VENV:-.venv-blender}
+# Absolute from here on: the tests run from blender/tests (a relative path is the checkout's).
+case $VENV in /*) ;; *) VENV=$PWD/$VENV ;; esac
 PY311=${PYTHON311:-python3.11}
 if [ ! -x "$VENV/bin/python" ]; then
   echo "run.sh: creating $VENV (Python 3.11, for the bpy 5.0 wheel)"
@@ -36,4 +38,4 @@ VPFFD_BLENDER_ZIP="$(pwd)/$(bash scripts/package_blender.sh)"
 export VPFFD_BLENDER_ZIP
 # Run from outside the checkout so that `import vpffd` is the installed wheel.
 cd blender/tests
-exec "../../$BPY" -m pytest -q -s -p no:cacheprovider test_addon.py "$@"
+exec "$BPY" -m pytest -q -s -p no:cacheprovider test_addon.py "$@"

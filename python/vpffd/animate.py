@@ -80,6 +80,8 @@ class Animator:
     duration : float
         seconds (> 0).
 
+    Notes
+    -----
     Subclasses implement ``__call__(t)`` returning (nu, nv, nw, 3) float64.
     """
 

@@ -271,7 +271,7 @@ class Deformer:
         order and rest volume(s), so an object can travel through the lattice frame
         by frame. On the CPU it costs each vertex's cell, a counting sort by cell and
         the embedding (straight into the sorted order): 1.1-2.7 plain FFD frames
-        (``bench/results/motion_vm.md``). What only a volume-preserving frame needs
+        (``bench/results/vm/motion_vm.md``). What only a volume-preserving frame needs
         waits for the first such frame: the vertex fans relabelled into the new order
         (once, for any number of moves before it) and the new rest volume, its target
         (``rest_volume`` and a result's ``rest_volume`` sum it when read); a plain

@@ -78,6 +78,8 @@ class Scene:
         but its rays slow down the further the mesh moves from where it was
         built.
 
+    Notes
+    -----
     ``vpffd.render(scene, ...)`` draws the scene's mesh with its BVH.
     """
 

@@ -152,6 +152,8 @@ class RBFDeformer:
         handle is refused at 0 and solved at one edge length); 0 keeps every vertex.
         Handle vertices move with their map either way.
 
+    Notes
+    -----
     Bad input (InvalidInputError, naming it): masks of the wrong length, an empty
     deformable region, overlapping or empty handle regions, handle vertices outside
     the deformable region, handle regions that leave no free vertex, constraint

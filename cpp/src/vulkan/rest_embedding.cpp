@@ -139,7 +139,7 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   // The tests as "inside" comparisons, which a NaN fails (an infinity fails the parameter
   // range): one form for every test and lane, so that without periodic axes the loop
   // takes four vertices (12 coordinates) a step with the axis constants repeated four
-  // times, and vectorises (bench/results/vulkan_move_host_vm.md). Constants in locals: read through `L` or this Impl, they were reloaded
+  // times, and vectorises (bench/results/vm/vulkan_move_host_vm.md). Constants in locals: read through `L` or this Impl, they were reloaded
   // after every store into the upload buffer (which might alias them). On a periodic
   // axis the test is of the wrapped position and the far limit is finite; elsewhere the
   // limit is infinite (a NaN fails it too, but is refused as bad first).

@@ -60,7 +60,7 @@ inline SolverError overflow_error(char axis) {
 /// Gram matrix is the number G = alpha^T W^-1 alpha and lambda = b / G. Five passes
 /// over the N control points and one array instead of the general path's dense
 /// matrices, eigensolver and temporaries: a 2,562-vertex sphere's three solves took
-/// 0.015 ms a frame, now 0.009-0.010 (bench/results/first_step_vm.md).
+/// 0.015 ms a frame, now 0.009-0.010 (bench/results/vm/first_step_vm.md).
 inline VectorXd solve_volume_row(const double* alpha, double rhs, const VectorXd& inv_weight, char axis,
                                  double* sum_squares) {
   const Index N = inv_weight.size();

@@ -150,7 +150,7 @@ inline std::shared_ptr<RestState> embed_rest(const FrameTopology& t, const RestS
   // the embedding is computed afterwards, straight into the processing order sorted
   // by these cells. (This replaced embedding into the previous order, reading the
   // cells back and permuting the six arrays; with the vectorised embedding loops a
-  // move became 0.73-0.82x as costly, bench/results/move_ab_vm.md.)
+  // move became 0.73-0.82x as costly, bench/results/vm/move_ab_vm.md.)
   std::vector<std::int32_t>& cell = scratch.cells;
   try {
     embed_cells(t.lattice, X, t.policy, cell, threads, "vertex");

@@ -5,8 +5,8 @@
 /// Moving the rest mesh (set_rest_vertices) changes it, but only a volume-preserving
 /// frame aiming at the default target, and whoever asks for the rest volume, read it:
 /// plain frames, frames with targets of their own and the moves themselves do not. Its
-/// face pass was ~13 % of a CPU move (bench/results/move_ab_vm.md) and about half of a
-/// Vulkan move's host share (bench/results/vulkan_move_host_vm.md), so both backends
+/// face pass was ~13 % of a CPU move (bench/results/vm/move_ab_vm.md) and about half of a
+/// Vulkan move's host share (bench/results/vm/vulkan_move_host_vm.md), so both backends
 /// sum it when first read (after a move: from the rest vertices they keep) and then
 /// keep it. The same function, faces and threads as an eager sum: the same bits.
 ///
