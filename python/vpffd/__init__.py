@@ -48,11 +48,12 @@ from .io import load_mesh, save_mesh
 from .normals import deformed_normals, vertex_normals
 # Pictures: vpffd.camera, picking, colormap, rendering and comparison are the
 # modules; their main names are re-exported here (vpffd.render is the function).
-from . import camera, picking, colormap, rendering, comparison, subdivision_picture
+from . import camera, picking, colormap, rendering, comparison, subdivision_picture, views
 from .camera import Camera
 from .picking import Hit, Scene, pick, pick_pixel
 from .rendering import render
-from .comparison import guess_up_axis, local_volume_change, render_comparison
+from .comparison import local_volume_change, render_comparison
+from .views import guess_up_axis
 from ._png import save_png, load_png
 from . import animate
 from .animate import run_animation
@@ -68,5 +69,5 @@ __all__ = [
     "render_comparison", "local_volume_change", "guess_up_axis",
     "folds", "check_folds", "FoldReport", "FoldError", "FoldWarning", "local_weights",
     "Multires", "MultiresDeformer", "MultiresResult", "DetailChange", "detail_change", "RBFDeformer",
-    "subdivision", "SubdivisionMultires", "SubdivisionAffineGroup", "subdivision_edits", "subdivision_picture",
+    "views", "subdivision", "SubdivisionMultires", "SubdivisionAffineGroup", "subdivision_edits", "subdivision_picture",
 ]

@@ -180,3 +180,70 @@ def out_array(out, rows: int, name: str, inputs=()):
             raise _core.InvalidInputError(f"{name}: shares memory with {what}, which the frame reads while it "
                                           "writes; give a separate array")
     return out
+
+
+def constraint_pairs(constraints, n_vertices: int, who: str = "constraints") -> list:
+    """Point constraints as a list of ``(source, target)``: source a vertex index
+    (int, checked against 0..n_vertices-1) or a (3,) float64 rest-space point,
+    target a (3,) float64 point; copies, so the caller's arrays are never shared.
+
+    Takes a list of ``(source, target)`` pairs, or a pair of numpy arrays
+    ``(indices (k,) int, targets (k, 3))`` or ``(sources (k, 3), targets (k, 3))``
+    (a 2-tuple whose second item is a 2-D numpy array is read this way)."""
+    if constraints is None:
+        return []
+    if (isinstance(constraints, tuple) and len(constraints) == 2 and isinstance(constraints[1], np.ndarray)
+            and constraints[1].ndim == 2):
+        return _constraint_arrays(constraints[0], constraints[1], n_vertices, who)
+    if isinstance(constraints, (str, bytes)) or not hasattr(constraints, "__iter__"):
+        raise TypeError(f"{who}: expected a list of (source, target) pairs or (indices, targets) arrays, "
+                        f"got {type(constraints).__name__}")
+    out = []
+    for i, c in enumerate(constraints):
+        try:
+            src, tgt = c
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"{who}[{i}]: expected a (source, target) pair, got {c!r}") from None
+        tgt = vector3(tgt, f"{who}[{i}] target")
+        if isinstance(src, (int, np.integer)) and not isinstance(src, (bool, np.bool_)):
+            # The upper bound is the core's check (its message names the vertex count).
+            if src < 0:
+                raise InvalidInputError(f"{who}[{i}]: vertex {src} out of range (the mesh has {n_vertices} "
+                                        "vertices)")
+            out.append((int(src), tgt))
+        else:
+            out.append((vector3(src, f"{who}[{i}] source"), tgt))
+    return out
+
+
+def _constraint_arrays(sources, targets, n_vertices: int, who: str) -> list:
+    T = targets
+    if not is_real(T.dtype):
+        raise TypeError(f"{who}: targets: expected real numbers, got dtype {T.dtype}")
+    if T.shape[1] != 3:
+        raise InvalidInputError(f"{who}: targets: expected shape (k, 3), got {T.shape}")
+    k = T.shape[0]
+    bad = ~np.isfinite(T).all(axis=1)
+    if bad.any():
+        raise InvalidInputError(f"{who}: targets: row {int(np.argmax(bad))} contains NaN or Inf")
+    S = np.asarray(sources)
+    if S.dtype == bool:
+        raise TypeError(f"{who}: indices: expected integers, got dtype bool")
+    if np.issubdtype(S.dtype, np.integer):
+        if S.shape != (k,):
+            raise InvalidInputError(f"{who}: indices: expected shape ({k},), one per target, got {S.shape}")
+        out_of_range = (S < 0) | (S >= n_vertices)
+        if out_of_range.any():
+            j = int(np.argmax(out_of_range))
+            raise InvalidInputError(f"{who}: indices[{j}] = {int(S[j])} out of range (the mesh has {n_vertices} "
+                                    "vertices)")
+        return [(int(s), np.array(t, dtype=np.float64)) for s, t in zip(S, T)]
+    if not is_real(S.dtype):
+        raise TypeError(f"{who}: sources: expected vertex indices (integers) or (k, 3) points, got dtype {S.dtype}")
+    if S.shape != (k, 3):
+        raise InvalidInputError(f"{who}: sources: expected vertex indices ({k},) or rest-space points ({k}, 3), "
+                                f"one per target, got shape {S.shape}")
+    bad = ~np.isfinite(S).all(axis=1)
+    if bad.any():
+        raise InvalidInputError(f"{who}: sources: row {int(np.argmax(bad))} contains NaN or Inf")
+    return [(np.array(s, dtype=np.float64), np.array(t, dtype=np.float64)) for s, t in zip(S, T)]

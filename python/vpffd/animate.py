@@ -516,6 +516,18 @@ class AnimationResult:
     axes: str
     faces: np.ndarray = field(default=None, repr=False)
 
+    def __repr__(self) -> str:
+        T = len(self.times)
+        V = "not kept" if self.vertices is None else f"{np.shape(self.vertices)[1]} vertices"
+        kept = f"preserved along {self.axes}" if self.preserve else "not preserved"
+        span = f"{self.times[0]:.3g}..{self.times[-1]:.3g} s" if T else "no frames"
+        ch = self.volume_change_plain
+        worst = f"{100 * np.nanmax(np.abs(ch)):.2f} %" if T and np.isfinite(ch).any() else "n/a"
+        return (f"AnimationResult({T} frames, {span}, {V}, lattice "
+                f"{'x'.join(map(str, np.shape(self.control_points)[1:4]))}, volume {kept}\n"
+                f"  rest volume {self.rest_volume:.6g}; largest change of the plain FFD {worst}; "
+                f"largest error of the frames {self.max_volume_error if T else float('nan'):.1e})")
+
     @property
     def volume_change(self) -> np.ndarray:
         """(T,) relative volume change of the frames against the rest volume

@@ -24,86 +24,15 @@ from .picking import Scene, _require_embree
 InvalidInputError = _core.InvalidInputError
 BackendUnavailableError = _core.BackendUnavailableError
 
-AXES = "xyz"
 LATTICE_STYLES = ("none", "faint", "full")
 
-# A three-quarter view from the front, right and above, in the model's up frame:
-# z up looks from -y (the front of a z-up model), y up from +z, x up from +y.
-_VIEW = {"z": (1.0, -1.6, 0.9), "y": (1.0, 0.9, 1.6), "x": (0.9, 1.0, -1.6)}
-
-# Formats whose files are y-up by convention (scanners, Stanford PLY, OBJ from
-# modelling tools, glTF) and z-up (3D printing, CAD).
-_Y_UP_FORMATS = ("ply", "obj", "off", "om", "gltf", "glb")
-_Z_UP_FORMATS = ("stl", "3mf", "amf")
+from .views import AXES, _axis_index, guess_up_axis, model_frame, parse_view, view_direction  # noqa: F401
 
 
-def _axis_index(up) -> int:
-    if isinstance(up, str) and up.lower() in ("x", "y", "z"):
-        return AXES.index(up.lower())
-    raise InvalidInputError(f"up: expected 'x', 'y' or 'z', got {up!r}")
-
-
-def guess_up_axis(mesh, path=None) -> tuple:
-    """(axis, reason): the model's up axis, "x", "y" or "z", and why.
-
-    1. A standing model has a flat base: faces facing down along the axis, at
-       its lowest end. The axis whose end (either one) carries the largest such
-       area (at least 1 % of the surface, 1.5 times the runner-up) is up.
-    2. Otherwise the file's convention, from ``path``'s extension: scans and
-       modelling formats (PLY, OBJ, OFF, glTF) are y-up, 3D-printing formats
-       (STL, 3MF) z-up.
-    3. Otherwise z, vpffd's own convention.
-    """
-    m = Mesh.from_any(mesh)
-    V, F = m.vertices, m.faces
-    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-    n = np.cross(b - a, c - a)  # twice the area, along the normal
-    area2 = np.linalg.norm(n, axis=1)
-    total = float(area2.sum())
-    lo, hi = _arrays.bounds(V)
-    ext = hi - lo
-    scores = []
-    if total > 0 and ext.max() > 0:
-        cen = (a + b + c) / 3.0
-        with np.errstate(invalid="ignore", divide="ignore"):
-            unit = n / area2[:, None]
-        cos_flat = math.cos(math.radians(12))
-        for k in range(3):
-            if ext[k] <= 0:
-                continue
-            near = 0.02 * ext[k]
-            for end, sign in ((lo[k], -1.0), (hi[k], 1.0)):
-                # the base faces outwards at its end; either winding counts
-                flat = (np.abs(unit[:, k]) > cos_flat) & (np.abs(cen[:, k] - end) <= near)
-                scores.append((float(area2[flat].sum()) / total, k, "lowest" if sign < 0 else "highest"))
-    scores.sort(reverse=True)
-    if scores and scores[0][0] >= 0.01:
-        best, runner = scores[0], next((s for s in scores[1:] if s[1] != scores[0][1]), (0.0, -1, ""))
-        if best[0] >= 1.5 * runner[0]:
-            return AXES[best[1]], (f"flat base of {100 * best[0]:.1f} % of the surface at the {best[2]} "
-                                   f"{AXES[best[1]]}")
-    if path is not None:
-        import os
-        name = os.path.basename(os.fsdecode(path)).lower()
-        if name.endswith(".gz"):
-            name = name[:-3]
-        ext_name = name.rsplit(".", 1)[-1] if "." in name else ""
-        if ext_name in _Y_UP_FORMATS:
-            return "y", f".{ext_name} files are y-up by convention"
-        if ext_name in _Z_UP_FORMATS:
-            return "z", f".{ext_name} files are z-up by convention"
-    return "z", "no flat base and no file convention: vpffd's default"
-
-
-def view_direction(up="z") -> np.ndarray:
-    """(3,) unit direction from the target towards the eye of the three-quarter
-    view used for a model whose up axis is ``up``."""
-    d = np.array(_VIEW[AXES[_axis_index(up)]])
-    return d / np.linalg.norm(d)
-
-
-def fit_camera(points, up="z", size=(800, 600), direction=None, fov: float = 30.0, margin: float = 1.04) -> Camera:
-    """A camera looking along ``direction`` (default: ``view_direction(up)``) with
+def fit_camera(points, up="z", size=(800, 600), direction=None, fov: float = 30.0, margin: float = 1.04,
+               view=None) -> Camera:
+    """A camera looking along ``direction`` (default: ``view_direction(up, view)``,
+    ``view`` as ``views.parse_view`` takes it: "front", "30,20", ...) with
     ``up`` upwards, placed so that every one of ``points`` (n, 3) lies in the
     image of ``size`` with ``margin`` (>= 1) and their projection is centred: the
     points' extent fills the limiting image dimension (unlike
@@ -115,9 +44,13 @@ def fit_camera(points, up="z", size=(800, 600), direction=None, fov: float = 30.
     k = _axis_index(up)
     up_v = np.zeros(3)
     up_v[k] = 1.0
-    d = view_direction(up) if direction is None else np.asarray(direction, dtype=np.float64)
+    d = view_direction(up, view) if direction is None else np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
     f = -d
+    if np.linalg.norm(np.cross(f, up_v)) < 1e-6:
+        # Straight down (or up): the image's up is the model's back (front), so the
+        # front of the model is at the bottom of a top view.
+        up_v = -np.sign(d @ up_v) * model_frame(up)[0]
     r = np.cross(f, up_v)
     r /= np.linalg.norm(r)
     u = np.cross(r, f)
@@ -207,8 +140,14 @@ def _pct(x: float) -> str:
 
 def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, lattice_style: str = "faint",
                       color: str = "volume", samples: int = 2, labels=None, limit=None, fov: float = 30.0,
-                      background=(1.0, 1.0, 1.0)) -> np.ndarray:
+                      background=(1.0, 1.0, 1.0), view=None, folds: bool = True) -> np.ndarray:
     """Panels side by side, one camera: rest | plain FFD | volume-preserved.
+
+    One camera and one framing for all panels: fitted to every panel's mesh, its
+    drawn lattice and the dragged points. A frame with point constraints (a drag)
+    shows the dragged points (dark dots) and their targets (red rings), joined by a
+    line while they are apart; its plain FFD panel is the drag without the volume
+    correction (the same control points and constraints, ``preserve_volume=False``).
 
     Parameters
     ----------
@@ -238,6 +177,13 @@ def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, 
     limit : float, optional
         det J at which the colours saturate (and 1 / limit); default: covers
         95 % of the values shown.
+    view : str or (azimuth, elevation), optional
+        the camera's side of the model (``views.parse_view``: "front", "back",
+        "left", "right", "top", "bottom", or degrees such as "30,20"); default a
+        three-quarter view from the front, right and above.
+    folds : bool
+        caption every deformed panel with its fold verdict
+        (``FoldReport.verdict(short=True)`` of ``Deformer.check_folds``).
 
     Returns
     -------
@@ -282,8 +228,22 @@ def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, 
     r0 = pairs[0][1]
     plain_cp = r0.control_points - r0.offsets
     preserved = any(r.steps for _, r in pairs)
+    cons = r0.constraints
+    plain_X, plain_vol = None, r0.volume_before
+    if cons is not None and preserved:
+        # The drag without the correction: the same control points and constraints.
+        from ._core import SolverError
+        try:
+            t = d.deform(plain_cp, preserve_volume=False, axes=_axes_of(r0) or "xyz", constraints=cons)
+            plain_cp, plain_X, plain_vol = t.control_points, t.vertices, t.volume
+        except (SolverError, InvalidInputError):
+            pass
+    elif not preserved:
+        plain_cp, plain_X, plain_vol = r0.control_points, r0.vertices, r0.volume
+    if plain_X is None:
+        plain_X = d.ffd(plain_cp)
     panels = [("rest", rest.vertices, lat.rest_points, None, r0.rest_volume)]
-    panels.append(("plain FFD" if preserved else "deformed", d.ffd(plain_cp), plain_cp, plain_cp, r0.volume_before))
+    panels.append(("plain FFD" if preserved else "deformed", plain_X, plain_cp, plain_cp, plain_vol))
     if preserved:
         for lab, r in pairs:
             axes = _axes_of(r)
@@ -299,7 +259,7 @@ def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, 
     fs = max(10, int(round(0.03 * min(h, 1.2 * w / n))))
     font, unicode_ok = _font(fs)
     small, _ = _font(max(9, int(round(0.85 * fs))))
-    cap_h = int(2.7 * fs)
+    cap_h = int((3.9 if folds else 2.7) * fs)
     bar_h = int(3.0 * fs) if color == "volume" else 0
     pw, ph = w // n, h - cap_h - bar_h
     if pw < 8 or ph < 8:
@@ -316,7 +276,19 @@ def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, 
         if not (math.isfinite(limit) and limit > 1):
             raise InvalidInputError(f"render_comparison: limit must be a finite number > 1, got {limit!r}")
 
-    cam = fit_camera(np.concatenate([p[1] for p in panels]), up=up, size=(pw, ph), fov=fov)
+    # One framing for every panel: meshes, the lattices drawn, handles and targets.
+    framed = [p[1] for p in panels]
+    if lattice_style != "none":
+        framed += [np.asarray(lat.expanded_control_points(p[2]) if lat.periodic else p[2]).reshape(-1, 3)
+                   for p in panels]
+    handles = None
+    if cons is not None:
+        S, T = cons
+        handles = [S] + [lat.deform_points(S, p[2], outside="extrapolate") for p in panels[1:]]
+        framed += handles + [T]
+    # The margin leaves room for the lattice's points and lines drawn at the extremes.
+    margin = 1.04 + (8.0 / min(pw, ph) if lattice_style != "none" else 0.0)
+    cam = fit_camera(np.concatenate(framed), up=up, size=(pw, ph), fov=fov, view=view, margin=margin)
     canvas = np.empty((h, w, 3), np.uint8)
     canvas[:] = np.round(bg * 255).astype(np.uint8)
     x0 = (w - n * pw) // 2
@@ -336,6 +308,9 @@ def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, 
 
     pic = Image.fromarray(canvas)
     draw = ImageDraw.Draw(pic)
+    if handles is not None:
+        for i in range(n):
+            _draw_drag(draw, cam, (pw, ph), (x0 + i * pw, cap_h), handles[i], cons[1], fs)
     ink, grey = (25, 25, 25), (95, 95, 95)
     minus = "\u2212" if unicode_ok else "-"
     rest_vol = r0.rest_volume
@@ -351,10 +326,30 @@ def render_comparison(mesh, result, lattice=None, *, size=(1600, 600), up=None, 
             sub = (f"volume {vol:.6g}  ({_pct(ch)})" if abs(ch) >= 5e-5 else
                    f"volume {vol:.6g}  (error {ch:+.1e})")
         draw.text((cx, int(1.45 * fs)), sub.replace("-", minus), fill=grey, font=small, anchor="ma")
+        if folds and i > 0:
+            verdict = d.check_folds(cp).verdict(short=True)
+            folded = verdict.startswith("FOLDS")
+            draw.text((cx, int(2.6 * fs)), "lattice " + verdict if not folded else verdict,
+                      fill=(190, 30, 30) if folded else grey, font=small, anchor="ma")
     if color == "volume":
         _colour_bar(draw, pic, w, h - bar_h, bar_h, fs, font, small, limit,
                     int(sum(int((dj <= 0).sum()) for dj in detj[1:])), unicode_ok)
     return np.asarray(pic, dtype=np.uint8).copy()
+
+
+def _draw_drag(draw, cam, size, origin, handles, targets, fs):
+    """Dragged points (dark dots) and their targets (red rings) over one panel, joined
+    by a line while they are apart; ``origin`` is the panel's top left pixel."""
+    a = cam.project(handles, size) + origin
+    b = cam.project(targets, size) + origin
+    r = max(3, int(round(0.28 * fs)))
+    for (ax, ay), (bx, by) in zip(a, b):
+        if not np.isfinite([ax, ay, bx, by]).all():
+            continue
+        if math.hypot(bx - ax, by - ay) > r:
+            draw.line([ax, ay, bx, by], fill=(200, 40, 40), width=max(1, r // 2))
+        draw.ellipse([bx - r - 1, by - r - 1, bx + r + 1, by + r + 1], outline=(200, 40, 40), width=max(2, r // 2))
+        draw.ellipse([ax - r + 1, ay - r + 1, ax + r - 1, ay + r - 1], fill=(20, 20, 60))
 
 
 def _colour_bar(draw, pic, w, top, height, fs, font, small, limit, folds, unicode_ok):
@@ -362,7 +357,7 @@ def _colour_bar(draw, pic, w, top, height, fs, font, small, limit, folds, unicod
     from PIL import Image
     le = "\u2264" if unicode_ok else "<="
     left, right = "det J:  compressed", "expanded"
-    fold_label = f"fold (det J {le} 0)" + (f": {folds:,} vertices" if folds else ": none")
+    fold_label = f"fold (det J {le} 0)" + (f": {folds:,} vertices" if folds else ": at no vertex")
     gap = int(0.6 * fs)
     bh = max(6, int(0.7 * fs))
     lw, rw, fw = (int(draw.textlength(t, font=small)) for t in (left, right, fold_label))

@@ -485,10 +485,13 @@ class Deformer:
             correction stays where the edit was (``vpffd.local_weights``).
         fixed : (nu, nv, nw) or (N,) bool, optional
             control points that must not move.
-        constraints : list of (source, target), optional
+        constraints : list of (source, target), or (sources, targets) arrays, optional
             point constraints (Problem 2): ``source`` is a vertex index or a
             rest-space point (3,), ``target`` the (3,) world position it must reach.
-            Any number; each must move only along corrected axes.
+            Also a pair of numpy arrays: vertex indices (k,) int or rest-space points
+            (k, 3), and targets (k, 3) (a 2-tuple whose second item is a 2-D numpy
+            array is read so). Any number; each must move only along corrected axes.
+            Not modified; ``result.constraints`` gives them back as points.
         target_volume : float or sequence of K floats, optional
             default: the rest volume. With ``parts``: one volume per part (in the
             order of ``part_labels``), default each part's rest volume. A target
@@ -566,22 +569,8 @@ class Deformer:
         if out_normals is not None and not normals:
             raise InvalidInputError("deform: out_normals is given but normals=False; pass normals=True")
         w, fx = correction_arrays(self, P, weights, fixed)
-        cons = []
-        for i, c in enumerate(constraints or []):
-            try:
-                src, tgt = c
-            except (TypeError, ValueError):
-                raise InvalidInputError(f"constraints[{i}]: expected a (source, target) pair") from None
-            tgt = _arrays.vector3(tgt, f"constraints[{i}] target")
-            if isinstance(src, (int, np.integer)) and not isinstance(src, bool):
-                # -1 means "a rest-space point" to the core, so the sign is checked here;
-                # the upper bound is the core's check.
-                if src < 0:
-                    raise InvalidInputError(f"constraints[{i}]: vertex {src} out of range "
-                                            f"(the mesh has {self.mesh.n_vertices} vertices)")
-                cons.append((int(src), np.zeros(3), tgt))
-            else:
-                cons.append((-1, _arrays.vector3(src, f"constraints[{i}] source"), tgt))
+        pairs = _arrays.constraint_pairs(constraints, nv)
+        cons = [(s, np.zeros(3), t) if isinstance(s, int) else (-1, s, t) for s, t in pairs]
         if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)):
             raise TypeError(f"rounds: expected an integer, got {type(rounds).__name__}")
         tv = None
@@ -643,9 +632,22 @@ class Deformer:
             backend=self.backend, method="traversal" if self._vk is not None else method, folds=folds,
             faces=self._mesh.faces, normals=self._frame_normals(r, normals, out_normals),
             part_volumes=r.get("part_volumes"),
-            part_volumes_before=r.get("part_volumes_before"), part_target_volumes=r.get("part_targets"))
+            part_volumes_before=r.get("part_volumes_before"), part_target_volumes=r.get("part_targets"),
+            constraints=self._constraint_points(pairs))
         self._last_python_ms = 1e3 * (time.perf_counter() - t_start)
         return result
+
+    def _constraint_points(self, pairs):
+        """(sources (k, 3), targets (k, 3)) read-only, the rest-space points and their
+        targets (a vertex source as its rest position), or None without constraints."""
+        if not pairs:
+            return None
+        X = self.mesh.vertices if any(isinstance(s, int) for s, _ in pairs) else None
+        S = np.array([X[s] if isinstance(s, int) else s for s, _ in pairs], dtype=np.float64)
+        T = np.array([t for _, t in pairs], dtype=np.float64)
+        S.setflags(write=False)
+        T.setflags(write=False)
+        return S, T
 
     def _frame_options(self, preserve_volume, axes, w, fx, cons, tv, part_targets, method, allow_open, rounds,
                        allow_inversion=False):

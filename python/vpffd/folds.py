@@ -69,6 +69,13 @@ class FoldReport:
     depth : int
     time_ms : float
         wall time of the check (the vertex pass included when present).
+    occupied : (cu, cv, cw) bool or None
+        ``Deformer.check_folds`` only: the cells holding part of the mesh (surface or,
+        closed, inside); ``mesh_folded`` says whether a fold is there. ``verdict()``
+        words both.
+
+    A report is safe to share between threads once ``occupied`` has been read (the
+    first read computes and stores it; two threads reading it first compute it twice).
     """
 
     def __init__(self, d: dict, lattice):
@@ -98,6 +105,11 @@ class FoldReport:
         self.time_ms = 1e3 * float(d["seconds"])
         self.vertex_min_det = None
         self.vertex_argmin = None
+        # With a mesh (Deformer.check_folds): its rest vertices and faces, the cells it
+        # occupies (computed when first needed) and whether a vertex decided the fold.
+        self._mesh = None
+        self._occupied = None
+        self._vertex_fold = False
         edges = []
         for a, (t, s) in enumerate(zip(lattice.knots, self.spans)):
             u = np.append(t[s], t[s[-1] + 1]) if len(s) else np.zeros(0)
@@ -129,30 +141,192 @@ class FoldReport:
         c = self.cell_of(points)
         return self.status[c[:, 0], c[:, 1], c[:, 2]]
 
-    def verdict(self) -> str:
-        """One line: fold-free, folded (where), or undecided."""
+    @property
+    def occupied(self):
+        """(cu, cv, cw) bool: the cells that hold part of the mesh (its surface, and for a
+        closed mesh its inside too), or None for a check of a lattice alone. Only from
+        ``Deformer.check_folds``; computed on first read (``occupied_cells``)."""
+        if self._occupied is None and self._mesh is not None:
+            self._occupied = occupied_cells(self, self._mesh)
+            self._occupied.setflags(write=False)
+        return self._occupied
+
+    @property
+    def mesh_folded(self):
+        """True when the deformation folds where the mesh is: a folded cell holds part of
+        it, or det J is proven negative at a vertex; False when every fold is in cells
+        the mesh does not occupy (or there is none); None for a lattice alone."""
+        if self._mesh is None:
+            return None
+        if not self.folded:
+            return False
+        if self._vertex_fold:
+            return True
+        return bool((self.occupied & (self.status == FOLDED)).any())
+
+    def _mesh_counts(self):
+        """(folded, undecided, occupied) cell counts within the mesh's cells."""
+        occ = self.occupied
+        return (int((occ & (self.status == FOLDED)).sum()), int((occ & (self.status == UNKNOWN)).sum()),
+                int(occ.sum()))
+
+    def verdict(self, short: bool = False) -> str:
+        """The fold verdict in one line: the line the command line prints, and (with
+        ``short``: its first part, without the numbers) the pictures' captions and the
+        results' reprs. With a mesh (``Deformer.check_folds``) it says separately
+        whether cells the mesh occupies fold ("FOLDS in the mesh's cells": the fold may
+        still miss the mesh's own points within them) or only cells it
+        does not occupy ("folds only outside the mesh": no point of the mesh moves
+        through such a fold)."""
         t = f"{self.time_ms:.1f} ms"
+        where = ""
         if self.folded:
             i, j, k = self.witness_cell
             x = ", ".join(f"{v:.4g}" for v in self.witness)
-            return (f"FOLDED: det J = {self.witness_det:.3g} at ({x}) in cell ({i}, {j}, {k}); "
-                    f"{self.n_folded} of {self.n_cells} cells fold ({t})")
+            where = f"det J = {self.witness_det:.3g} at ({x}) in cell ({i}, {j}, {k})"
         if self.certified:
-            return f"fold-free: det J >= {self.lower_bound:.3g} proven on all {self.n_cells} cells ({t})"
-        vert = "" if self.vertex_min_det is None else f", min det J at the vertices {self.vertex_min_det:.3g}"
-        return (f"not certified: {self.n_unknown} of {self.n_cells} cells undecided at depth {self.depth} "
-                f"(det J >= {self.lower_bound:.3g}, smallest found {self.min_det:.3g}{vert}; {t})")
+            head = "fold-free (proven)"
+            detail = f"det J >= {self.lower_bound:.3g} on all {self.n_cells} cells"
+        elif self._mesh is None:
+            if self.folded:
+                head = f"FOLDS in {self.n_folded} of {self.n_cells} cells"
+                detail = where
+            else:
+                head = f"undecided in {self.n_unknown} of {self.n_cells} cells"
+                detail = (f"depth {self.depth}; det J >= {self.lower_bound:.3g}, smallest found "
+                          f"{self.min_det:.3g}")
+        else:
+            n_fold, n_unknown, n_occ = self._mesh_counts()
+            vert = "" if self.vertex_min_det is None else f"; min det J at the vertices {self.vertex_min_det:.3g}"
+            if self.mesh_folded:
+                head = (f"FOLDS in the mesh's cells ({n_fold} of its {n_occ})" if n_fold else
+                        f"FOLDS at the mesh (det J < 0 at vertex {self.vertex_argmin})")
+                detail = f"{where}; {self.n_folded} of {self.n_cells} lattice cells fold{vert}"
+            elif self.folded:
+                head = f"folds only outside the mesh ({self.n_folded} cells it does not occupy)"
+                if n_unknown:
+                    head += f"; {n_unknown} of its {n_occ} cells undecided"
+                detail = f"{self.n_folded} of {self.n_cells} lattice cells fold; {where}{vert}"
+            else:
+                head = (f"undecided in {n_unknown} of the mesh's {n_occ} cells" if n_unknown else
+                        f"no fold in the mesh's {n_occ} cells; {self.n_unknown} empty cells undecided")
+                detail = (f"{self.n_unknown} of {self.n_cells} lattice cells undecided at depth {self.depth}; "
+                          f"det J >= {self.lower_bound:.3g}, smallest found {self.min_det:.3g}{vert}")
+        return head if short else f"{head}: {detail} ({t})"
 
     def __bool__(self):
         raise TypeError("FoldReport has no truth value: use .certified or .folded")
 
     def __repr__(self) -> str:
-        w = "None" if self.witness is None else "[" + ", ".join(f"{v:.6g}" for v in self.witness) + "]"
         vert = "" if self.vertex_min_det is None else f", vertex_min_det={self.vertex_min_det:.6g}"
-        return (f"FoldReport(certified={self.certified}, folded={self.folded}, cells={self.cells}, "
+        return (f"FoldReport({self.verdict(short=True)}; cells={self.cells}, "
                 f"certified/folded/unknown={self.n_certified}/{self.n_folded}/{self.n_unknown}, "
-                f"refined={self.n_refined}, min_det={self.min_det:.6g}, lower_bound={self.lower_bound:.6g}"
-                f"{vert}, witness={w}, depth={self.depth}, time_ms={self.time_ms:.3g})")
+                f"min_det={self.min_det:.6g}, lower_bound={self.lower_bound:.6g}{vert}, depth={self.depth})")
+
+
+def occupied_cells(report: FoldReport, mesh) -> np.ndarray:
+    """(cu, cv, cw) bool: the cells of ``report`` that hold part of ``mesh`` (rest
+    positions): every cell a triangle touches (exact triangle-box overlap, cells
+    closed), and for a closed mesh every cell inside it. Cells no triangle touches
+    form connected groups that lie wholly inside or wholly outside a closed surface;
+    one winding number per group decides which. On a periodic lattice the cells of
+    the vertices and of points on the faces no farther apart than a quarter of the
+    narrowest cell count, without the inside."""
+    from .mesh import Mesh
+    m = Mesh.from_any(mesh)
+    V, F = m.vertices, m.faces
+    occ = np.zeros(report.status.shape, dtype=bool)
+    if report._wrap is not None:
+        for X in _face_samples(V, F, 0.25 * min(float(np.diff(e).min()) for e in report.cell_edges)):
+            c = report.cell_of(X)
+            occ[c[:, 0], c[:, 1], c[:, 2]] = True
+        return occ
+    T = V[F]  # (F, 3 corners, 3)
+    lo, hi = T.min(axis=1), T.max(axis=1)
+    first = np.empty((len(F), 3), np.int64)
+    last = np.empty((len(F), 3), np.int64)
+    for a, e in enumerate(report.cell_edges):
+        n = len(e) - 1
+        # Closed cells: a triangle reaching a cell wall touches the cells on both sides.
+        first[:, a] = np.clip(np.searchsorted(e, lo[:, a], side="left") - 1, 0, n - 1)
+        last[:, a] = np.maximum(np.clip(np.searchsorted(e, hi[:, a], side="right") - 1, 0, n - 1), first[:, a])
+    one = (first == last).all(axis=1)
+    occ[first[one, 0], first[one, 1], first[one, 2]] = True
+    many = np.flatnonzero(~one)
+    # Triangles across cell walls: each against the cells of its bounding box, in
+    # chunks of about a million pairs.
+    counts = np.prod(last[many] - first[many] + 1, axis=1)
+    start = 0
+    while start < len(many):
+        stop = start + max(1, int(np.searchsorted(np.cumsum(counts[start:]), 1 << 20)))
+        t = np.repeat(many[start:stop], counts[start:stop])
+        local = np.arange(len(t)) - np.repeat(np.cumsum(counts[start:stop]) - counts[start:stop], counts[start:stop])
+        span = last[t] - first[t] + 1
+        cell = first[t] + np.stack([local // (span[:, 1] * span[:, 2]), (local // span[:, 2]) % span[:, 1],
+                                    local % span[:, 2]], axis=1)
+        lo_c = np.stack([report.cell_edges[a][cell[:, a]] for a in range(3)], axis=1)
+        hi_c = np.stack([report.cell_edges[a][cell[:, a] + 1] for a in range(3)], axis=1)
+        hit = _triangles_touch_boxes(T[t], 0.5 * (lo_c + hi_c), 0.5 * (hi_c - lo_c))
+        occ[cell[hit, 0], cell[hit, 1], cell[hit, 2]] = True
+        start = stop
+    if m.is_closed and not occ.all():
+        from scipy import ndimage
+        groups, n_groups = ndimage.label(~occ)
+        for g in range(1, n_groups + 1):
+            i, j, k = np.argwhere(groups == g)[0]
+            centre = np.array([0.5 * (e[c] + e[c + 1]) for e, c in zip(report.cell_edges, (i, j, k))])
+            if abs(_winding_number(centre, T)) > 0.5:
+                occ[groups == g] = True
+    return occ
+
+
+def _triangles_touch_boxes(T, c, h) -> np.ndarray:
+    """(n,) bool: triangle T[i] (3, 3) meets the closed box of centre c[i] and half
+    sizes h[i] (separating axes: the box's, the triangle's normal, the 9 edge
+    crosses). Touching counts: each test allows a relative 1e-12 of the box's size,
+    so rounding never drops a cell the surface reaches."""
+    v = T - c[:, None, :]
+    tol = 1e-12 * (np.abs(c).max(axis=1) + h.max(axis=1))
+    edges = (v[:, 1] - v[:, 0], v[:, 2] - v[:, 1], v[:, 0] - v[:, 2])
+    axes = [np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])]
+    for a in range(3):
+        unit = np.zeros(3)
+        unit[a] = 1.0
+        axes.append(np.broadcast_to(unit, c.shape))
+        axes += [np.cross(np.broadcast_to(unit, c.shape), e) for e in edges]
+    ok = np.ones(len(T), dtype=bool)
+    for ax in axes:
+        p = np.einsum("nkj,nj->nk", v, ax)
+        r = (np.abs(ax) * h).sum(axis=1)
+        slack = r + tol * np.abs(ax).sum(axis=1)
+        ok &= (p.min(axis=1) <= slack) & (p.max(axis=1) >= -slack)
+    return ok
+
+
+def _winding_number(x, T) -> float:
+    """Winding number of the closed triangle soup T (F, 3, 3) about the point x: 1
+    inside an outward surface, 0 outside (solid angles, Van Oosterom and Strackee)."""
+    a, b, c = T[:, 0] - x, T[:, 1] - x, T[:, 2] - x
+    la, lb, lc = (np.linalg.norm(u, axis=1) for u in (a, b, c))
+    num = np.einsum("ij,ij->i", a, np.cross(b, c))
+    den = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", b, c) * la
+           + np.einsum("ij,ij->i", c, a) * lb)
+    return float(np.arctan2(num, den).sum() / (2 * np.pi))
+
+
+def _face_samples(V, F, spacing):
+    """Points on every face no farther apart than ``spacing`` (the corners included),
+    in chunks: barycentric grids of n steps per face, n from its longest edge."""
+    T = V[F]
+    longest = np.max(np.linalg.norm(T - np.roll(T, 1, axis=1), axis=2), axis=1)
+    steps = np.clip(np.ceil(longest / spacing), 1, 64).astype(np.int64)
+    for n in np.unique(steps):
+        i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+        keep = i + j <= n
+        w = np.stack([i[keep], j[keep], n - i[keep] - j[keep]], axis=1) / n  # (s, 3)
+        sel = T[steps == n]
+        for s in range(0, len(sel), max(1, (1 << 20) // len(w))):
+            yield np.einsum("sk,fkj->fsj", w, sel[s:s + max(1, (1 << 20) // len(w))]).reshape(-1, 3)
 
 
 def _depth(depth) -> int:
@@ -224,6 +398,7 @@ def check_deformer_folds(deformer, control_points=None, depth: int = DEFAULT_DEP
     v = int(np.argmin(det))
     rep.vertex_min_det = float(det[v])
     rep.vertex_argmin = v
+    rep._mesh = deformer.mesh
     # The Hadamard bound needs J at that vertex; the (V, 3, 3) Jacobians are only
     # computed when a negative det J can decide.
     undecided = not rep.folded and not rep.certified and det[v] < 0
@@ -231,6 +406,7 @@ def check_deformer_folds(deformer, control_points=None, depth: int = DEFAULT_DEP
     if undecided and det[v] < -_VERTEX_DET_TOLERANCE * hadamard:
         # Proven negative at a rest vertex (a certified lattice cannot get here).
         rep.folded = True
+        rep._vertex_fold = True
         rep.witness = deformer.mesh.vertices[v].copy()
         rep.witness_parameters = deformer.lattice.parameters(rep.witness[None])[0]
         rep.witness_det = float(det[v])
@@ -258,7 +434,8 @@ def check_frame(deformer, corrected, on_fold: str, restore):
         i, j, k = rep.witness_cell
         x = ", ".join(f"{v:.4g}" for v in rep.witness)
         msg = (f"deform: the corrected lattice folds in cell ({i}, {j}, {k}): det J = {rep.witness_det:.3g} at "
-               f"rest point ({x}); {rep.n_folded} of {rep.n_cells} cells fold")
+               f"rest point ({x}); {rep.n_folded} of {rep.n_cells} cells fold; "
+               f"{'the mesh folds' if rep.mesh_folded else 'none of them holds part of the mesh'}")
         if on_fold == "raise":
             restore()
             raise FoldError(msg, rep)

@@ -10,7 +10,9 @@ binary), ``.om``; any of them gzip-compressed as ``name.ply.gz`` etc. (reading).
 """
 from __future__ import annotations
 
+import logging
 import os
+import time
 import warnings
 
 import numpy as np
@@ -21,6 +23,8 @@ from .mesh import Mesh
 MeshIOError = _core.MeshIOError
 InvalidInputError = _core.InvalidInputError
 BackendUnavailableError = _core.BackendUnavailableError
+
+_log = logging.getLogger(__name__)
 
 #: Extensions load_mesh and save_mesh accept (empty when the build has no OpenMesh).
 FORMATS = tuple(_core.mesh_formats()) if _core.has_openmesh else ()
@@ -36,6 +40,14 @@ def _path(path, where: str) -> bytes:
     if not isinstance(path, (str, bytes, os.PathLike)):
         raise TypeError(f"{where}: expected a file name (str, bytes or os.PathLike), got {type(path).__name__}")
     return os.fsencode(path)
+
+
+def _file_size(p: bytes) -> str:
+    try:
+        n = os.stat(p).st_size
+    except OSError:
+        return "size unknown"
+    return f"{n / 2 ** 20:.1f} MiB" if n >= 2 ** 20 else f"{n / 2 ** 10:.1f} KiB"
 
 
 def _require_openmesh(where: str) -> None:
@@ -93,6 +105,7 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
     """
     p = _path(path, "load_mesh")
     _require_openmesh("load_mesh")
+    t0 = time.perf_counter()
     try:
         d = _core.read_mesh(p)
     except MemoryError as e:  # the arrays' conversion to NumPy; C++ turns its own bad_alloc into MeshIOError
@@ -101,10 +114,15 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
     for note in d.get("notes", ()):
         warnings.warn(f"load_mesh: '{p.decode('utf-8', 'backslashreplace')}': {note}", stacklevel=2)
     mesh = Mesh(d["vertices"], d["faces"])
+    # The file's name, for its format's up-axis convention (views.guess_up_axis).
+    mesh._source = os.fsdecode(p)
+    _log.info("read %s: %d vertices, %d faces, %s in %.2f s", mesh._source, mesh.n_vertices, mesh.n_faces,
+              _file_size(p), time.perf_counter() - t0)
     normals = d["normals"]
     if orient:
         # File normals are returned as stored: they are data, not derived from the winding.
         mesh = mesh.oriented()
+        mesh._source = os.fsdecode(p)
     if return_normals:
         return mesh, normals
     return mesh
@@ -163,7 +181,10 @@ def save_mesh(path, mesh, normals=None, binary=None, precision: int = 17) -> Non
         raise TypeError(f"save_mesh: binary must be a bool or None, got {type(binary).__name__}")
     if isinstance(precision, bool) or not isinstance(precision, (int, np.integer)):
         raise TypeError(f"save_mesh: precision must be an integer, got {type(precision).__name__}")
+    t0 = time.perf_counter()
     r = _core.write_mesh(p, m.vertices, m.faces, N, b, int(precision))
+    _log.info("wrote %s: %d vertices, %d faces, %s in %.2f s", os.fsdecode(p), m.n_vertices, m.n_faces,
+              _file_size(p), time.perf_counter() - t0)
     if r["split_faces"] or r["dropped_faces"]:
         warnings.warn(f"save_mesh: '{p.decode('utf-8', 'backslashreplace')}': {r['split_faces']} non-manifold faces were written with their own copies "
                       f"of their vertices, {r['dropped_faces']} faces with a repeated vertex index were dropped",

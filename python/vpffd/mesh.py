@@ -36,6 +36,7 @@ class Mesh:
         self._edges = None
         self._box = None
         self._normals = None
+        self._source = None  # the file it was read from (load_mesh), for its up-axis convention
 
     def _with_vertices(self, V: np.ndarray) -> "Mesh":
         """The same faces with new vertices ``V``: a checked (#V, 3) float64 array that
@@ -43,6 +44,7 @@ class Mesh:
         m = Mesh.__new__(Mesh)
         V.setflags(write=False)
         m._V, m._F, m._edges, m._box, m._normals = V, self._F, self._edges, None, None
+        m._source = self._source
         return m
 
     @classmethod

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import logging
 import threading
 import time
 import warnings
@@ -37,6 +38,8 @@ from .mesh import Mesh
 
 InvalidInputError = _core.InvalidInputError
 BackendUnavailableError = _core.BackendUnavailableError
+
+_log = logging.getLogger(__name__)
 
 _VOLUME_MODES = ("base", "fine")
 _NORMAL_MODES = ("approximate", "exact")
@@ -162,6 +165,8 @@ class Multires:
             raise InvalidInputError(f"Multires: foot_points must be 'exact' or 'affine', got {foot_points!r}")
         self.foot_point_mode = foot_points
         t0 = time.perf_counter()
+        _log.info("Multires: decomposing %d vertices (smoothing %g, %d fit rounds, %s foot points)",
+                  self.mesh.n_vertices, self.smoothing, self.fit_rounds, foot_points)
         self._m = _core.Multires(self.mesh.vertices, self.mesh.faces, self.smoothing, _threads_arg(threads),
                                  foot_points == "exact", self.fit_rounds, self.fairness)
         self.seconds = time.perf_counter() - t0
@@ -174,6 +179,10 @@ class Multires:
         self.rest_normals = _read_only(self._m.rest_normals)
         self.extrapolated_fraction = float(self._m.extrapolated_fraction)
         self.rms_displacement = tuple(float(x) for x in self._m.rms_displacement)
+        for i, rms in enumerate(self.rms_displacement):
+            _log.debug("Multires: %s: rms |d| %.4g", "faired base" if i == 0 else f"fit round {i}", rms)
+        _log.info("Multires: decomposed in %.2f s; rms |d| %.4g -> %.4g; %d foot points unresolved",
+                  self.seconds, self.rms_displacement[0], self.rms_displacement[-1], self.n_unresolved)
         # Reference volumes of every frame's report, measured once (NaN when open).
         closed = self.mesh.is_closed
         self._rest_volumes = (_volume(self.mesh.vertices, self.mesh.faces, closed),
@@ -250,6 +259,17 @@ class MultiresResult:
     backend: str
     faces: object = None
     constraint_error: float = float("nan")
+
+    def __repr__(self) -> str:
+        cp = "RBF map" if self.control_points is None else \
+            f"lattice {'x'.join(map(str, np.shape(self.control_points)[:-1]))}"
+        cons = "" if not np.isfinite(self.constraint_error) else \
+            f"; constraints met to {self.constraint_error:.1e}"
+        return (f"MultiresResult({self.vertices.shape[0]} vertices, {cp}, backend {self.backend!r}, "
+                f"{self.normals_mode} normals, volume mode {self.volume_mode!r}\n"
+                f"  volume {self.volume:.6g} (rest {self.rest_volume:.6g}, relative error {self.volume_error:.1e}); "
+                f"base {self.base_volume:.6g} (rest {self.base_rest_volume:.6g}, relative error "
+                f"{self.base_volume_error:.1e}){cons})")
 
     def to_trimesh(self, base: bool = False):
         """The rebuilt fine mesh (or, ``base=True``, the deformed base) as a

@@ -13,6 +13,7 @@ import numpy as np
 
 from . import _core
 from .comparison import _font, fit_camera
+from .views import guess_up_axis
 from .details import detail_change
 from .mesh import Mesh
 from .rendering import render
@@ -45,8 +46,8 @@ def _volume_note(error, base_error=None) -> str:
     return note
 
 
-def render_multires_comparison(deformer, plain, result, *, size=(1500, 560), up="z", samples: int = 2,
-                               direction=None, title: str = "") -> np.ndarray:
+def render_multires_comparison(deformer, plain, result, *, size=(1500, 560), up=None, samples: int = 2,
+                               direction=None, title: str = "", view=None) -> np.ndarray:
     """(H, W, 3) uint8 picture: rest | plain FFD of the fine mesh | multiresolution.
 
     Parameters
@@ -58,8 +59,9 @@ def render_multires_comparison(deformer, plain, result, *, size=(1500, 560), up=
     result : MultiresResult
         ``deformer.deform(...)`` of the edit.
     size : (width, height) pixels of the whole picture (three panels and captions).
-    up : {"x", "y", "z"}  upwards in the picture.
-    direction : (3,), optional  viewing direction (default: the view of ``up``).
+    up : {"x", "y", "z"} or None  upwards in the picture (None: ``guess_up_axis`` of the mesh).
+    direction : (3,), optional  viewing direction (default: ``view`` of ``up``).
+    view : str or (azimuth, elevation), optional  ``views.parse_view``: "front", "30,20", ...
     title : str  an optional first caption line across the picture.
     """
     from PIL import Image, ImageDraw
@@ -81,7 +83,9 @@ def render_multires_comparison(deformer, plain, result, *, size=(1500, 560), up=
     if ph < 40:
         raise InvalidInputError(f"render_multires_comparison: size {size!r} leaves no room for the meshes")
     pts = np.concatenate([mesh.vertices, plain.vertices, result.vertices])
-    cam = fit_camera(pts[:: max(1, len(pts) // 200000)], up=up, size=(pw, ph), direction=direction, margin=1.06)
+    up = guess_up_axis(mesh)[0] if up is None else up
+    cam = fit_camera(pts[:: max(1, len(pts) // 200000)], up=up, size=(pw, ph), direction=direction, margin=1.06,
+                     view=view)
     panels = [
         (mesh.vertices, [f"rest: {mesh.n_vertices:,} vertices, details |d| up to "
                          f"{np.abs(deformer.multires.displacements).max():.3g}",

@@ -53,6 +53,10 @@ class DeformResult:
     part_target_volumes : (K,) float64 or None
         with parts and ``preserve_volume``: the volume each part was corrected to
         (``volume``, ``target_volume`` and ``rest_volume`` are then the sums).
+    constraints : (sources (k, 3), targets (k, 3)) float64 read-only, or None
+        the frame's point constraints: rest-space points (a vertex's rest position
+        for a vertex index) and the world positions they were taken to; the form
+        ``deform(constraints=...)`` takes.
     """
     vertices: np.ndarray
     control_points: np.ndarray
@@ -71,6 +75,7 @@ class DeformResult:
     part_volumes: np.ndarray = None
     part_volumes_before: np.ndarray = None
     part_target_volumes: np.ndarray = None
+    constraints: tuple = None
 
     def __post_init__(self):
         # A RestVolumeSource in place of the number: kept aside until rest_volume is read.
@@ -91,6 +96,30 @@ class DeformResult:
         # Copies and pickles carry the number, not the source (which refers to a Deformer).
         _ = self.rest_volume
         return dict(self.__dict__)
+
+    def __repr__(self) -> str:
+        # A few lines of numbers, not the arrays (print(result.vertices) shows those).
+        shape = "x".join(map(str, self.control_points.shape[:3]))
+        rest = self.__dict__.get("rest_volume")  # not summed yet: not summed for a repr either
+        rest_txt = "rest not summed yet" if rest is None else f"rest {rest:.6g}"
+        lines = [f"DeformResult({self.vertices.shape[0]} vertices, lattice {shape}, backend {self.backend!r}, "
+                 f"method {self.method!r}"]
+        vol = f"  volume {self.volume:.6g} ({rest_txt}, plain FFD {self.volume_before:.6g}"
+        if np.isfinite(self.target_volume):
+            vol += f", target {self.target_volume:.6g}, relative error {self.volume_error:.1e}"
+        lines.append(vol + ")")
+        axes = "".join(_axis_name(s.get("axis")) if isinstance(s, dict) else "" for s in self.steps)
+        what = [f"corrected in {len(self.steps)} axis step{'s' * (len(self.steps) != 1)} ({axes})"
+                if self.steps else "not corrected"]
+        if self.constraints is not None:
+            what.append(f"{len(self.constraints[0])} constraints met to {self.constraint_error:.1e}")
+        if self.part_volumes is not None:
+            what.append(f"{len(self.part_volumes)} parts")
+        if self.normals is not None:
+            what.append("normals")
+        what.append("folds: " + (self.folds.verdict(short=True) if self.folds is not None else "not checked"))
+        lines.append("  " + "; ".join(what) + ")")
+        return "\n".join(lines)
 
     def to_trimesh(self):
         """The deformed mesh as a ``trimesh.Trimesh`` (vertex order kept; needs trimesh)."""
@@ -116,6 +145,10 @@ class DeformResult:
         if self.rest_volume == 0:
             return float("nan")
         return (self.volume_before - self.rest_volume) / self.rest_volume
+
+
+def _axis_name(a) -> str:
+    return "xyz"[int(a)] if isinstance(a, (int, np.integer)) and 0 <= a < 3 else str(a or "")
 
 
 class RestVolumeSource:

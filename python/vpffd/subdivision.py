@@ -13,6 +13,8 @@ OpenMesh); without it ``SubdivisionMultires`` raises BackendUnavailableError.
 """
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import scipy.sparse
 
@@ -21,6 +23,7 @@ from .backends import _requested_precision, _resolve_backend
 from .mesh import Mesh
 from .multires import MultiresResult, _check_normals, _read_only, _relative, _threads_arg, _volume
 
+_log = logging.getLogger(__name__)
 InvalidInputError = _core.InvalidInputError
 BackendUnavailableError = _core.BackendUnavailableError
 
@@ -230,6 +233,8 @@ class SubdivisionMultires:
                 raise InvalidInputError(f"SubdivisionMultires: {name} must be an integer, got {value!r}")
         threads = _threads_arg(threads)
         V, F = self.mesh.vertices, self.mesh.faces
+        _log.info("SubdivisionMultires: decomposing %d vertices (%s, %s control mesh, %d fit rounds)", len(V),
+                  scheme, "given" if control_mesh is not None else "decimated", int(iterations))
         if control_mesh is not None:
             if control_vertices is not None:
                 raise InvalidInputError("SubdivisionMultires: give control_mesh or control_vertices, not both")
@@ -258,6 +263,11 @@ class SubdivisionMultires:
         self.rms_initial, self.rms_final = float(m.rms_initial), float(m.rms_final)
         self.rms_rounds = tuple(m.rms_rounds)
         self.seconds = float(m.seconds)
+        for i, rms in enumerate(self.rms_rounds):
+            _log.debug("SubdivisionMultires: fit round %d: rms |p - S| %.4g", i + 1, rms)
+        _log.info("SubdivisionMultires: %d control points; rms |p - S| %.4g -> %.4g; %d foot points unresolved; "
+                  "%.2f s", len(self.control_points), self.rms_initial, self.rms_final, len(self.unresolved),
+                  self.seconds)
         self.bytes_per_vertex = float(m.frame_bytes_per_vertex)
         X, _, B = m.deform(self.control_points, threads)
         self.limit_points = _read_only(B)

@@ -42,6 +42,13 @@ class DragEdit:
     snap_distances: np.ndarray
     moved: np.ndarray
 
+    def __repr__(self) -> str:
+        k = len(self.vertices)
+        snap = f", snapped up to {self.snap_distances.max():.3g} away" if k else ""
+        return (f"DragEdit({k} dragged point{'s' * (k != 1)} on vertices {list(map(int, self.vertices[:5]))}"
+                f"{' ...' if k > 5 else ''}{snap}; {len(self.moved)} of {len(self.control_points)} control "
+                "points moved)")
+
 
 def drag(sm, points, targets, control_points=None) -> DragEdit:
     """Control points that move the limit surface under each of ``points`` (k, 3)

@@ -91,7 +91,7 @@ def edit_captions(n: EditNumbers, top: float) -> list:
 
 
 def render_subdivision_edit(sm, result, *, size=(1600, 480), up=None, samples: int = 2, angles=None,
-                            top=None, captions=None) -> np.ndarray:
+                            top=None, captions=None, view=None) -> np.ndarray:
     """The four panels of an edit (see the module), one camera, captions above.
 
     Parameters
@@ -110,6 +110,9 @@ def render_subdivision_edit(sm, result, *, size=(1600, 480), up=None, samples: i
         least 1).
     captions : list of 4 (title, numbers), optional
         default ``edit_captions(edit_numbers(sm, result), top)``.
+    view : str or (azimuth, elevation), optional
+        the camera (``views.parse_view``: "front", "30,20", ...; default the
+        three-quarter view).
 
     Returns
     -------
@@ -150,7 +153,7 @@ def render_subdivision_edit(sm, result, *, size=(1600, 480), up=None, samples: i
     if pw < 8 or ph < 8:
         raise InvalidInputError(f"render_subdivision_edit: {w} x {h} pixels is too small for {n} panels")
     pts = np.concatenate([sm.limit_points, result.vertices, sm.control_points, result.control_points])
-    cam = fit_camera(pts, up=up, size=(pw, ph))
+    cam = fit_camera(pts, up=up, size=(pw, ph), view=view)
     canvas = np.full((h, w, 3), 255, np.uint8)
     x0 = (w - n * pw) // 2
     for i, (m, net, colors) in enumerate(panels):

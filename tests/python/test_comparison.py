@@ -27,7 +27,7 @@ def layout(img, n):
     """(caption height, panel height, panel width, x0) as render_comparison lays them out."""
     h, w = img.shape[:2]
     fs = max(10, int(round(0.03 * min(h, 1.2 * w / n))))
-    cap, bar = int(2.7 * fs), int(3.0 * fs)
+    cap, bar = int(3.9 * fs), int(3.0 * fs)  # three caption lines: title, volume, fold verdict
     return cap, h - cap - bar, w // n, (w - n * (w // n)) // 2
 
 

@@ -92,7 +92,7 @@ def test_swapped_slabs_fold_with_a_verified_witness(degree):
     i, j, k = rep.witness_cell
     assert rep.status[i, j, k] == folds.FOLDED
     assert (rep.cell_of(rep.witness[None]) == rep.witness_cell).all()
-    assert "FOLDED" in rep.verdict() and f"cell ({i}, {j}, {k})" in rep.verdict()
+    assert "FOLDS" in rep.verdict() and f"cell ({i}, {j}, {k})" in rep.verdict()
 
 
 @pytest.mark.parametrize("amplitude", [0.005, 0.05, 0.15, 0.3, 0.6, 1.2])
@@ -126,7 +126,7 @@ def test_degenerate_lattice_is_never_certified():
     rep = vpffd.check_folds(lat, P, depth=5)
     assert not rep.certified and not rep.folded
     assert (rep.status == folds.UNKNOWN).all()
-    assert "not certified" in rep.verdict()
+    assert "undecided" in rep.verdict()
 
 
 def test_thread_count_does_not_change_the_report():
@@ -209,7 +209,7 @@ def test_deformer_check_folds_adds_vertex_det(cube_case):
     det_v, status_v = folds.vertex_folds(d, P, rep)
     assert det_v.shape == (cube.n_vertices,) and status_v.shape == (cube.n_vertices,)
     assert (np.abs(det_v - det) <= bound).all()
-    assert "vertex_min_det" in repr(rep) and "FOLDED" in rep.verdict()
+    assert "vertex_min_det" in repr(rep) and "FOLDS" in rep.verdict()
     ok = d.check_folds()
     assert ok.certified and ok.vertex_min_det == pytest.approx(1.0, abs=1e-9)
 
@@ -346,7 +346,7 @@ def test_cli_deform_and_demo_print_fold_verdicts(tmp_path, capsys):
     assert main(["deform", str(tmp_path / "s.obj"), str(tmp_path / "o.obj"), "--squash", "0.3",
                  "--twist", "200"]) == 0
     out = capsys.readouterr().out
-    assert "folds: FOLDED: det J = -" in out and "cell (" in out
+    assert "folds: FOLDS in the mesh" in out and "det J = -" in out and "cell (" in out
     assert main(["deform", str(tmp_path / "s.obj"), str(tmp_path / "o.obj"), "--twist", "45"]) == 0
     assert "folds: fold-free" in capsys.readouterr().out
     import io

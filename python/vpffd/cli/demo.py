@@ -44,6 +44,9 @@ VARIANTS = (
 )
 
 _LABELS = {v[0]: v[1] for v in VARIANTS}
+# Caption lines of a panel: the variant, its volume, its fold check; the frame's
+# number goes on the line after them.
+CAPTION_LINES = 3
 
 # The twist at which the plain FFD of box(32) in a 5x5x5 cubic lattice (2 %
 # padding) loses 65.7 % of its volume, the paper's "66 % at the last frame".
@@ -175,7 +178,8 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
         row = Image.new("RGB", (w * len(panels), h), "white")
         for i, p in enumerate(panels):
             row.paste(p, (i * w, 0))
-        _label(row, ["", "", f"frame {f}  t = {scene.results[keys[0]].times[f]:.2f} s"])
+        # Below the panels' three caption lines (name, volume, fold check).
+        _label(row, [f"frame {f}  t = {scene.results[keys[0]].times[f]:.2f} s"], first=CAPTION_LINES)
         written.append(save_frame(fdir, f, row))
         gif.append(row)
     step = scene.animator.duration / max(scene.frames - 1, 1) if fps is None else 1.0 / fps
@@ -186,7 +190,7 @@ def _render_scene(scene: Scene, out: Path, size, progress=None, fps=None) -> lis
     for i, k in enumerate(keys):
         for j, f in enumerate(scene.keyframes):
             cell = sheet_cells[(k, f)].copy()
-            _label(cell, ["", "", f"frame {f}"])
+            _label(cell, [f"frame {f}"], first=CAPTION_LINES)
             sheet.paste(cell, (j * w, i * h))
     from PIL import ImageDraw
     font, unicode_ok = _font(fs)

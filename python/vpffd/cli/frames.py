@@ -10,15 +10,32 @@ from pathlib import Path
 from .._files import replaced_path
 
 
-def label(img, lines):
-    """Draws `lines` of text at the top left of the PIL image `img` (12 px apart); returns it."""
+def line_height(draw) -> int:
+    """Pixels from one caption line to the next: the default font's full height
+    (ascender to descender, from its text boxes) plus 2 pixels between lines."""
+    box = draw.textbbox((0, 0), "Ag|()", anchor="la")
+    return box[3] - min(box[1], 0) + 2
+
+
+def label(img, lines, first: int = 0):
+    """Draws ``lines`` of text at the top left of the PIL image ``img``, line
+    ``first`` onwards (empty strings keep their line free); returns it."""
+    label_boxes(img, lines, first)
+    return img
+
+
+def label_boxes(img, lines, first: int = 0) -> list:
+    """``label``, returning the (left, top, right, bottom) pixel box of every line drawn."""
     from PIL import ImageDraw
     d = ImageDraw.Draw(img)
-    y = 3
-    for text in lines:
-        d.text((5, y), text, fill=(20, 20, 20))
-        y += 12
-    return img
+    step = line_height(d)
+    boxes = []
+    for i, text in enumerate(lines):
+        if text:
+            xy = (5, 3 + (first + i) * step)
+            d.text(xy, text, fill=(20, 20, 20), anchor="la")
+            boxes.append(d.textbbox(xy, text, anchor="la"))
+    return boxes
 
 
 def frame_dir(out: Path, key: str, frames: int) -> Path:

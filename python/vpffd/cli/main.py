@@ -7,6 +7,7 @@ a correction that does not exist). ``VPFFD_TRACEBACK=1`` shows the traceback.
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import re
 import sys
@@ -79,6 +80,14 @@ def _drag(text: str):
     return _vec3(a, "--drag point"), _vec3(b, "--drag target")
 
 
+def _view(text: str):
+    from ..views import parse_view
+    try:
+        return parse_view(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e).replace("view: ", "")) from None
+
+
 def _finite(text: str):
     try:
         x = float(text)
@@ -122,9 +131,9 @@ def _load(path: str):
     return load_mesh(path)
 
 
-def _render_png(path, deformer, result, size, up, lattice_style):
+def _render_png(path, deformer, result, size, up, lattice_style, view=None):
     from .. import render_comparison, save_png  # rest | plain FFD | volume-preserved
-    save_png(path, render_comparison(deformer, result, size=size, up=up, lattice_style=lattice_style))
+    save_png(path, render_comparison(deformer, result, size=size, up=up, lattice_style=lattice_style, view=view))
 
 
 # --- commands ---------------------------------------------------------------------
@@ -192,8 +201,8 @@ def _deform(args, bar) -> int:
     mesh = _load(args.input)
     up_note = ""
     if args.up is None:
-        from ..comparison import guess_up_axis
-        args.up, why = guess_up_axis(mesh, args.input)
+        from ..views import guess_up_axis  # the pictures' and Python's rule (the file's name is on the mesh)
+        args.up, why = guess_up_axis(mesh)
         up_note = f"up axis {args.up} (guessed: {why}; --up to change)"
         if args.axis is None:
             args.axis = args.up
@@ -228,7 +237,9 @@ def _deform(args, bar) -> int:
     d = Deformer(mesh, lat, backend=args.backend, outside=args.outside)
     bar(2, 4, "deforming")
     t0 = time.perf_counter()
-    r = d.deform(P, preserve_volume=preserve, axes=args.preserve if preserve else "xyz", constraints=cons or None)
+    weights = "auto" if args.weights == "auto" and preserve else None
+    r = d.deform(P, preserve_volume=preserve, axes=args.preserve if preserve else "xyz", constraints=cons or None,
+                 weights=weights)
     ms = 1e3 * (time.perf_counter() - t0)
     out = Mesh(r.vertices, mesh.faces)
     bar(3, 4, "writing")
@@ -254,12 +265,44 @@ def _deform(args, bar) -> int:
         print("  the mesh is not closed: no volume (and no volume correction)")
     if cons:
         print(f"  dragged points reached their targets to {r.constraint_error:.1e}")
-    print(f"  folds: {d.check_folds(r.control_points).verdict()}")
+    rep = d.check_folds(r.control_points)
+    print(f"  folds: {rep.verdict()}")
+    if preserve and rep.mesh_folded:
+        _suggest_unfolded(args, d, P, cons)
     print(f"  {r.backend} backend, {ms:.1f} ms; wrote {args.output}")
     if args.render:
-        _render_png(args.render, d, r, args.size, args.up, args.lattice_style)
+        _render_png(args.render, d, r, args.size, args.up, args.lattice_style, args.view)
         print(f"  picture: {args.render}")
     return 0
+
+
+def _suggest_unfolded(args, d, P, cons) -> None:
+    """The correction folds the mesh: tries the other ways of correcting it (local
+    weights, other axes) and prints which keep the mesh fold-free."""
+    from .. import SolverError
+    tries = []
+    if args.weights != "auto":
+        tries.append(("--weights auto", dict(axes=args.preserve, weights="auto")))
+    others = "".join(a for a in "xyz" if a != args.axis)
+    for axes in (others, args.axis, "xyz"):
+        if axes != args.preserve:
+            tries.append((f"--preserve {axes}", dict(axes=axes, weights=None)))
+            if args.weights != "auto":
+                tries.append((f"--preserve {axes} --weights auto", dict(axes=axes, weights="auto")))
+    good, bad = [], []
+    for flags, kw in tries:
+        try:
+            t = d.deform(P, preserve_volume=True, constraints=cons or None, **kw)
+        except (SolverError, ValueError):
+            continue
+        (bad if d.check_folds(t.control_points).mesh_folded else good).append(flags)
+    finer = "x".join(str(n + max(2, n // 2)) for n in args.lattice)
+    if good:
+        print(f"  the volume correction folds cells the mesh occupies; without such folds: {', '.join(good)} "
+              f"(or more control points, e.g. --lattice {finer})")
+    else:
+        print(f"  the volume correction folds cells the mesh occupies, and so do {', '.join(bad) or 'the other axes'}; try a "
+              f"milder edit or more control points (e.g. --lattice {finer})")
 
 
 def _deform_multires(args, mesh, lat, P, preserve, done, cons, bar) -> int:
@@ -277,7 +320,8 @@ def _deform_multires(args, mesh, lat, P, preserve, done, cons, bar) -> int:
     bar(2, 4, "deforming")
     t0 = time.perf_counter()
     axes = args.preserve if preserve else "xyz"
-    r = md.deform(P, preserve_volume=preserve, axes=axes, volume="base", constraints=cons or None)
+    weights = "auto" if args.weights == "auto" and preserve else None
+    r = md.deform(P, preserve_volume=preserve, axes=axes, volume="base", constraints=cons or None, weights=weights)
     ms = 1e3 * (time.perf_counter() - t0)
     bar(3, 4, "writing")
     save_mesh(args.output, Mesh(r.vertices, mesh.faces))
@@ -300,8 +344,8 @@ def _deform_multires(args, mesh, lat, P, preserve, done, cons, bar) -> int:
         from ..deformer import Deformer
         from ..multires_picture import render_multires_comparison
         plain = Deformer(mesh, lat, backend=md.backend, outside=args.outside).deform(
-            P, preserve_volume=preserve, axes=axes, constraints=cons or None)
-        save_png(args.render, render_multires_comparison(md, plain, r, size=args.size, up=args.up))
+            P, preserve_volume=preserve, axes=axes, constraints=cons or None, weights=weights)
+        save_png(args.render, render_multires_comparison(md, plain, r, size=args.size, up=args.up, view=args.view))
         print(f"  picture: {args.render} (rest | FFD of the fine mesh | multiresolution, with the detail changes)")
     return 0
 
@@ -428,10 +472,10 @@ def _subdiv(args, bar) -> int:
         from ..subdivision_picture import render_subdivision_edit
         up = args.up
         if up is None:
-            from ..comparison import guess_up_axis
-            up, why = guess_up_axis(mesh, args.input)
+            from ..views import guess_up_axis
+            up, why = guess_up_axis(mesh)
             print(f"  up axis {up} (guessed: {why}; --up to change)")
-        save_png(args.render, render_subdivision_edit(sm, r, size=args.size, up=up, angles=a))
+        save_png(args.render, render_subdivision_edit(sm, r, size=args.size, up=up, angles=a, view=args.view))
         print(f"  picture: {args.render}")
     return 0
 
@@ -494,8 +538,19 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     fmt = _Formatter
+    # Every command takes -v (after its name: "vpffd deform -v IN OUT").
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("-v", "--verbose", action="count", default=0,
+                        help="log what runs to stderr: stages, file reads and writes with sizes and times "
+                             "(-vv: more detail)")
+    view_help = ("camera of the --render picture: front, back, left, right, top, bottom (sides of the model, "
+                 "its up axis upwards) or AZIMUTH,ELEVATION in degrees (azimuth from the front towards the "
+                 "model's right; default: a three-quarter view from the front, right and above)")
 
-    p = sub.add_parser("demo", formatter_class=fmt,
+    def add_parser(name, **kw):
+        return sub.add_parser(name, parents=[common], **kw)
+
+    p = add_parser("demo", formatter_class=fmt,
                        help="the paper's twisting cube and bouncing ball, with and without volume preservation",
                        description="Animates the paper's twisting cube (Figure 6) and bouncing ball (Figure 1) on "
                        "built-in meshes, plain FFD against the volume-preserving FFD restricted to xy, z and xyz; "
@@ -513,7 +568,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-render", action="store_true", help="numbers and the volume plot only, no frames")
     p.set_defaults(func=_cmd_demo)
 
-    p = sub.add_parser("deform", formatter_class=fmt, help="deform a mesh file with lattice edits",
+    p = add_parser("deform", formatter_class=fmt, help="deform a mesh file with lattice edits",
                        description="Deforms a mesh file with a lattice around it (edits applied in the order "
                        "squash, taper, twist, bend, then dragged points) and keeps its volume exactly.")
     p.add_argument("input", metavar="IN", help="mesh file to read (the formats of vpffd.load_mesh)")
@@ -542,6 +597,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="move the rest-space point X,Y,Z to TX,TY,TZ exactly (repeatable)")
     p.add_argument("--preserve", choices=["xyz", "xy", "xz", "yz", "x", "y", "z", "none"], default="xyz",
                    help="axes the volume correction may move control points along, or none")
+    p.add_argument("--weights", choices=["uniform", "auto"], default="uniform",
+                   help="how the volume correction spreads: the least change of all control points alike, or "
+                        "'auto': weighted by where the edit changed the volume, so the correction stays near the "
+                        "edit (Python: deform(weights='auto'))")
     p.add_argument("--backend", choices=["auto", "openmp", "serial", "vulkan"], default="auto",
                    help="where frames run (default auto: a GPU for large meshes when there is one; the Vulkan "
                         "device and precision follow VPFFD_VULKAN_DEVICE and VPFFD_VULKAN_PRECISION)")
@@ -554,12 +613,13 @@ def build_parser() -> argparse.ArgumentParser:
                         "coloured by the local volume change det J")
     p.add_argument("--size", type=_size, default=None, metavar="WxH",
                    help="--render picture size (default: 1600x600; only with --render)")
+    p.add_argument("--view", type=_view, default=None, metavar="VIEW", help=view_help)
     p.add_argument("--lattice-style", choices=["none", "faint", "full"], default="faint",
                    help="the lattice in the --render picture: hidden, thin translucent lines, or lines and "
                         "control points")
     p.set_defaults(func=_cmd_deform)
 
-    p = sub.add_parser("subdiv", formatter_class=fmt, help="edit a mesh as a displaced subdivision surface",
+    p = add_parser("subdiv", formatter_class=fmt, help="edit a mesh as a displaced subdivision surface",
                        description="Represents a detailed mesh as the limit surface of a coarse control mesh "
                        "(Loop or Catmull-Clark, decimated from the mesh and fitted) plus a normal displacement "
                        "per vertex (paper 002, section 5), moves control points so that the dragged points "
@@ -590,15 +650,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="--render picture size (default: 1600x480; only with --render)")
     p.add_argument("--up", choices=["x", "y", "z"], default=None,
                    help="the model's up axis in the picture (default: guessed and printed)")
+    p.add_argument("--view", type=_view, default=None, metavar="VIEW", help=view_help)
     p.set_defaults(func=_cmd_subdiv)
 
-    p = sub.add_parser("info", formatter_class=fmt, help="check a mesh file (closed, oriented, volume, ...)",
+    p = add_parser("info", formatter_class=fmt, help="check a mesh file (closed, oriented, volume, ...)",
                        description="Reads a mesh file and reports what vpffd needs of it: closed, consistently "
                        "oriented and outward, its volume. Exit status 1 when it cannot be volume-preserved.")
     p.add_argument("mesh", metavar="MESH", help="mesh file")
     p.set_defaults(func=_cmd_info)
 
-    p = sub.add_parser("bench", formatter_class=fmt, help="CPU benchmark table",
+    p = add_parser("bench", formatter_class=fmt, help="CPU benchmark table",
                        description="Times FFD, the volume coefficients and whole frames on built-in meshes "
                        "(and the shared test meshes when present); prints a markdown table.")
     p.add_argument("--repeats", type=_positive_int, default=7, help="timed runs per case (median)")
@@ -610,7 +671,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
     p.set_defaults(func=_cmd_bench)
 
-    p = sub.add_parser("devices", formatter_class=fmt, help="list the backends and Vulkan devices",
+    p = add_parser("devices", formatter_class=fmt, help="list the backends and Vulkan devices",
                        description="Lists the backends this build can run here and the Vulkan devices with "
                        "what vpffd would do with each.")
     p.set_defaults(func=_cmd_devices)
@@ -633,6 +694,31 @@ def _one_line(e: BaseException) -> str:
     return " ".join(msg.split())
 
 
+class _Elapsed(logging.Formatter):
+    """``vpffd CMD: [  1.2 s] message``: seconds since the command started."""
+
+    def __init__(self, prog):
+        super().__init__()
+        self.prog, self.start = prog, time.perf_counter()
+
+    def format(self, record):
+        return f"{self.prog}: [{time.perf_counter() - self.start:6.1f} s] {record.getMessage()}"
+
+
+def _verbose_logging(prog, verbose: int):
+    """A stderr handler on the "vpffd" logger for -v (INFO) and -vv (DEBUG), or None;
+    ``main`` takes it off again when the command ends."""
+    if not verbose:
+        return None
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_Elapsed(prog))
+    logger = logging.getLogger("vpffd")
+    handler.previous_level = logger.level
+    logger.setLevel(logging.DEBUG if verbose > 1 else logging.INFO)
+    logger.addHandler(handler)
+    return handler
+
+
 def main(argv=None) -> int:
     """Runs the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     parser = build_parser()
@@ -642,6 +728,7 @@ def main(argv=None) -> int:
     def one_line_warning(message, category, filename, lineno, file=None, line=None):
         print(f"{prog}: warning: {' '.join(str(message).split())}", file=sys.stderr)
 
+    handler = _verbose_logging(prog, getattr(args, "verbose", 0))
     try:
         with warnings.catch_warnings():
             warnings.showwarning = one_line_warning
@@ -659,6 +746,11 @@ def main(argv=None) -> int:
         kind = "error" if known else f"internal error ({type(e).__name__})"
         print(f"{prog}: {kind}: {_one_line(e)}", file=sys.stderr)
         return EXIT_ERROR
+    finally:
+        if handler is not None:
+            logger = logging.getLogger("vpffd")
+            logger.removeHandler(handler)
+            logger.setLevel(handler.previous_level)
 
 
 if __name__ == "__main__":

@@ -1,8 +1,11 @@
 """A tiny stderr progress bar for the command line (no dependencies)."""
 from __future__ import annotations
 
+import logging
 import sys
 import time
+
+_log = logging.getLogger("vpffd.cli")
 
 
 class Progress:
@@ -10,7 +13,11 @@ class Progress:
     ``delay`` seconds, so quick commands print nothing extra.
 
     Drawn in place with carriage returns on a terminal; off when stderr is not
-    a terminal (logs and pipes stay clean) unless ``force`` is set.
+    a terminal (logs and pipes stay clean) unless ``enabled`` is set.
+
+    Each named stage (a new ``note``) is logged at INFO on the "vpffd.cli" logger,
+    and a stage or a bar that took over ``delay`` seconds logs its time when it
+    ends: ``vpffd -v`` shows these lines (once per stage, never per step).
 
     Parameters
     ----------
@@ -36,6 +43,8 @@ class Progress:
         self.done = 0
         self._drawn = False
         self._last = 0.0
+        self._stage, self._stage_start = None, self.start
+        self._logged = False
 
     def update(self, done: int, total=None, note: str = "") -> None:
         """Reports ``done`` steps out of ``total`` (default: the total given at
@@ -43,9 +52,13 @@ class Progress:
         if total is not None:
             self.total = max(int(total), 1)
         self.done = int(done)
+        now = time.perf_counter()
+        if note and note != self._stage:
+            self._end_stage(now)
+            self._stage, self._stage_start = note, now
+            _log.info("%s: %s", self.label, note)
         if not self.enabled:
             return
-        now = time.perf_counter()
         if now - self.start < self.delay or (now - self._last < 0.05 and self.done < self.total):
             return
         self._last = now
@@ -65,8 +78,19 @@ class Progress:
         # Accepts progress(done, total) and progress(i, n, name) callbacks alike.
         self.update(done, total, " ".join(str(e) for e in extra))
 
+    def _end_stage(self, now) -> None:
+        if self._stage is not None and now - self._stage_start >= self.delay:
+            _log.info("%s: %s took %.1f s", self.label, self._stage, now - self._stage_start)
+        self._stage = None
+
     def close(self) -> None:
-        """Clears the bar's line (if it was drawn)."""
+        """Clears the bar's line (if it was drawn); logs the time of a stage or bar
+        that took over ``delay`` seconds (once)."""
+        now = time.perf_counter()
+        self._end_stage(now)
+        if not self._logged and now - self.start >= self.delay:
+            _log.info("%s: %d/%d steps in %.1f s", self.label, self.done, self.total, now - self.start)
+        self._logged = True
         if self._drawn:
             self.stream.write("\r" + " " * self._width_used() + "\r")
             self.stream.flush()
