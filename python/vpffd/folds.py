@@ -1,4 +1,4 @@
-"""Fold-over certification of a lattice (000_4f6fff734e8a30e3.txt, §8).
+"""Fold-over certification of a lattice (Hahmann et al. 2012, §8).
 
 A B-spline FFD folds (turns space inside out) where det J < 0, J = dD/dx. On
 every lattice cell det J is a polynomial of degree 3d-1 per axis; its

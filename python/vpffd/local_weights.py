@@ -1,5 +1,6 @@
-"""Automatic local volume correction (000_4f6fff734e8a30e3.txt, §8):
-correction weights derived from where the plain FFD changed the volume.
+"""Automatic local volume correction (Hahmann et al. 2012, Remark 2 and the local
+correction its §8 proposes): correction weights derived from where the plain FFD
+changed the volume.
 
 For each face f let dV_f = |V_f(deformed) - V_f(rest)|, with V_f the signed
 volume of the cone from the lattice centre over f (their sum is the enclosed

@@ -1,4 +1,5 @@
-"""Multiresolution deformation (paper 002_46481e9cc964c3b7.txt): a detailed mesh
+"""Multiresolution deformation (Marinov, Botsch and Kobbelt, *GPU-Based Multiresolution
+Deformation Using Approximate Normal Field Reconstruction*): a detailed mesh
 as a smooth base surface plus normal displacements, deformed through its base
 by an FFD lattice or a triharmonic RBF map, with positions and normals rebuilt
 per vertex without neighbours (eq. 1 and the approximate normals of eqs. 6-7).

@@ -1,4 +1,4 @@
-"""The picture that explains multiresolution editing (paper 002, Fig. 6): one edit
+"""The picture that explains multiresolution editing (Marinov, Botsch and Kobbelt, Fig. 6): one edit
 of a detailed mesh done two ways, side by side under one camera,
 
     rest | FFD of the fine mesh | multiresolution (base FFD + details rebuilt)

@@ -3,7 +3,7 @@
 Exact deformed normals come from the FFD Jacobian J = dD/dx: the image of the
 tangent plane with normal n has normal cof(J) n = det(J) J^-T n (no inverse
 needed). The mapped-tangent approximation of the GPU FFD paper
-(001_589bf8d97509b8d4.txt, Section 2.4) maps two tangents by finite differences
+(Schein and Elber, §2.4) maps two tangents by finite differences
 instead; it is here for comparison.
 """
 from __future__ import annotations

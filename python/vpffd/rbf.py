@@ -1,4 +1,4 @@
-"""Triharmonic RBF space deformation of a decomposition's base (paper 002, §6,
+"""Triharmonic RBF space deformation of a decomposition's base (Marinov, Botsch and Kobbelt, §6,
 after Botsch and Kobbelt 2005), in two modes.
 
 General: handle points h_j (any, H >= 4) and per-frame targets h'_j; the

@@ -1,4 +1,4 @@
-"""Displaced subdivision surfaces (paper 002_46481e9cc964c3b7.txt, §5): a detailed
+"""Displaced subdivision surfaces (Marinov, Botsch and Kobbelt, §5): a detailed
 triangle mesh as the limit surface of a coarse control mesh (Loop or Catmull-Clark,
 evaluated by OpenSubdiv) plus a normal displacement per vertex at its exact foot
 point. Editing moves control points; a frame is one pass over the fine vertices
@@ -80,7 +80,7 @@ def _volume_gradient(B, F) -> np.ndarray:
 
 
 def preserve_base_volume(Phi, F, C, target, axes="xyz", weights=None, constraints=None):
-    """Paper 000's volume correction with the control points as the basis: the base
+    """Hahmann et al.'s volume correction with the control points as the basis: the base
     points B = Phi C (V, 3), joined by the fine faces F, get the enclosed volume
     ``target``. One step per axis of ``axes`` (in that order); each moves the control
     points along that axis only, where the volume is linear in them, by the weighted
@@ -159,7 +159,7 @@ def _correction_weights(M, axes, weights, fixed, who):
 
 
 class SubdivisionMultires:
-    """A triangle mesh as a displaced subdivision surface (paper 002, §5).
+    """A triangle mesh as a displaced subdivision surface (Marinov, Botsch and Kobbelt, §5).
 
     Each fine vertex is p_i = S(t_i) + d_i N_S(t_i) with S the limit surface of the
     control mesh and t_i = (patch, u, v) an exact foot point (p_i - S(t_i) parallel
@@ -316,7 +316,7 @@ class SubdivisionMultires:
         given, or corrected with ``preserve_volume``.
 
         preserve_volume : bool
-            correct the control points first (``preserve_base_volume``, paper 000's
+            correct the control points first (``preserve_base_volume``, Hahmann et al.'s
             closed form with the control points as the basis) so that the base points
             S'(t_i), joined by the fine faces, keep their rest volume exactly
             (``base_volume_error`` ~1e-15); the fine mesh's volume is reported
