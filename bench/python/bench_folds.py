@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Fold-check benchmark (issue 14): time of ``vpffd.check_folds`` for 6^3, 10^3
+"""Fold-check benchmark: time of ``vpffd.check_folds`` for 6^3, 10^3
 and 16^3 cubic lattices on a twist and on a random edit, and how many cells
 needed subdivision.
 

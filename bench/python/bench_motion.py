@@ -1,6 +1,6 @@
 #!/usr/bin/env python
-"""Frames per second of the GPU-FFD paper's three moving-object scenes (001_…, §3)
-at its vertex counts, with the per-frame embedding included (issue 13).
+"""Frames per second of the GPU-FFD paper's three moving-object scenes (Schein and
+Elber, §3) at its vertex counts, with the per-frame embedding included.
 
     .venv/bin/python bench/python/bench_motion.py [--frames 20] [--backends serial openmp vulkan] [--md out.md]
 
@@ -16,7 +16,7 @@ Scenes (meshes generated in code, the paper's counts):
     ties and the wrap cost), its rest mesh moved on the device each frame on Vulkan.
   * sphere: 163,842 vertices (icosphere(7)) drifting diagonally through an 8x8x8 cubic
     lattice under a twist: a larger mesh than the paper's, where the cost of moving
-    the rest mesh against a frame is measured (issue 13: far below a frame).
+    the rest mesh against a frame is measured (far below a frame).
   * drag: the whales, one of them swimming and the other three still (an object moved
     among others): by offsets or by positions, only that whale is embedded again.
 Per scene, backend and kind of move: the median over ``--frames`` frames of moving the

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""The cost of moving some objects among still ones (issue 13, Deformer::move_parts).
+"""The cost of moving some objects among still ones (Deformer::move_parts).
 
     .venv/bin/python bench/python/bench_move_parts.py [--fish 16] [--frames 30] [--md out.md]
 
@@ -11,7 +11,7 @@ most half of the vertices move, only the moving whales are embedded again.
 
 "whole move forced" (offsets only): the still whales' y offsets flip between +0.0 and
 -0.0 every frame: the same positions in other bits, so every part counts as moved and
-the move takes the whole path, as every offset move did before move_parts: the ratio
+the move takes the whole path: the ratio
 of the two rows, measured in the same run, is what moving only some parts saves.
 Medians over ``--frames`` frames, on 1 and 2 threads (OpenMP); the load average is
 printed. Compare only figures from one run.

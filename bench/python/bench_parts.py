@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Cost of moving the rest mesh and of keeping several parts' volumes (issue 13).
+"""Cost of moving the rest mesh and of keeping several parts' volumes.
 
     .venv/bin/python bench/python/bench_parts.py [--repeats 9] [--subdiv 5] [--threads N]
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env python
-"""Time of vpffd.render_comparison (issue 16's target: under a second for a
-500k-vertex mesh at 1600 x 600 on 2 cores), with its parts.
+"""Time of vpffd.render_comparison, with its parts (the aim: under a second for a
+500k-vertex mesh at 1600 x 600 on 2 cores).
 
     OMP_NUM_THREADS=2 .venv/bin/python bench/python/bench_render.py [--subdiv 8] [--repeats 5]
         [--size 1600x600] [--mesh PATH]

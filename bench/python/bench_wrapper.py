@@ -2,8 +2,8 @@
 """What the Python layer adds to a frame: ``Deformer.deform`` and ``Deformer.ffd`` with
 the core's call replaced by one that returns a result computed beforehand, so that only
 the wrapper runs (argument checks, options, the result object), against the same calls
-through the core. On small meshes the wrapper is a visible part of a frame (issue 11:
-small meshes no slower than Blender's modifier).
+through the core. On small meshes the wrapper is a visible part of a frame (where
+vpffd is compared with Blender's modifier).
 
     .venv/bin/python bench/python/bench_wrapper.py [--calls 2000] [--repeats 9]
 
