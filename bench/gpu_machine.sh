@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds vpffd on a GPU machine without internet (the device tool's H100/H200: Python 3.12
+# Builds vpffd on a GPU machine without internet (e.g. an H100/H200 image with Python 3.12
 # with numpy, pybind11, scikit-build-core, CMake and gcc, but no Eigen, Vulkan headers,
 # glslc or glvnd) from the Debian packages carried in .debs/ and .gl/ (bench/README.md
 # says how to fetch them), then runs what is asked:
