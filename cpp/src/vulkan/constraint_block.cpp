@@ -32,7 +32,7 @@ bool VulkanDeformer::Impl::update_constraints(const std::vector<SparseVec>& rows
 
   // The rows' entries name extended control points; the unknowns are the distinct ones
   // (periodic ties, correction/tied_solve.h): an entry counts for the point it copies.
-  const Ties& ties = cpu->ties();
+  const Ties& ties = topo->ties;
   std::vector<std::int32_t> dist(index);
   if (!ties.identity)
     for (std::int32_t& c : dist) c = ties.source[c];

@@ -113,7 +113,13 @@ using detail::ST_SIZE;
 struct VulkanDeformer::Impl {
   using Buffer = detail::Buffer;
   std::shared_ptr<detail::Device> dev;  // first: destroyed last
-  std::unique_ptr<Deformer> cpu;
+  // What no move changes (lattice, faces, parts, tables), and the construction's rest
+  // state (frame/rest_state.h): the device's set-up reads it, and frames plan against it
+  // (after a move with vertex constraints as points: plan_options). Shared with the host
+  // Deformer that synced_cpu() makes: one embedding of the first rest mesh in all.
+  std::shared_ptr<const FrameTopology> topo;
+  std::shared_ptr<const RestState> plan_state;
+  std::unique_ptr<Deformer> host;  // cpu(): made on first use, follows moves lazily
   VkDevice d = VK_NULL_HANDLE;
   Precision precision = Precision::Float64;
   bool ff = false;  // float-float reals on the device
@@ -148,8 +154,8 @@ struct VulkanDeformer::Impl {
   // The rest volume (cone volume from the origin, as Deformer::rest_volume(true)) and,
   // with parts, each part's (the default targets): summed from `rest` on first use.
   LazyRestVolumes rest_vols;
-  bool moved = false;        // set_rest_vertices ran: `cpu` may lag behind (cpu_stale)
-  bool cpu_stale = false;    // `cpu` is of an older rest mesh (synced_cpu() re-embeds it)
+  bool moved = false;        // set_rest_vertices ran: `host` may lag behind (cpu_stale)
+  bool cpu_stale = false;    // `host` is of an older rest mesh (synced_cpu() re-embeds it)
   std::mutex cpu_mutex;
   std::uint32_t sort_blocks = 1, sort_passes = 2;
   VkCommandBuffer embed_cb = VK_NULL_HANDLE;  // upload of up_rest and the device embedding
@@ -364,11 +370,11 @@ struct VulkanDeformer::Impl {
     }
   }
   const Deformer& synced_cpu();
-  // The volumes of rest positions X: with parts (K > 1) each part's over the CPU
-  // Deformer's part_faces() and their sum, else signed_volume over its faces.
+  // The volumes of rest positions X: with parts (K > 1) each part's over the
+  // topology's part_faces and their sum, else signed_volume over its faces.
   RestVolumes measure_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) const {
-    return measure_rest_volumes(X, cpu->faces(), K > 1 ? &cpu->part_faces() : nullptr, cpu->part_face_start(), origin,
-                                0, where);
+    return measure_rest_volumes(X, topo->faces, K > 1 ? &topo->part_faces : nullptr, topo->face_start, origin, 0,
+                                where);
   }
   const RestVolumes& rest_volumes() const {
     return rest_vols.get([&] { return measure_rest(volumes_of_base ? base : rest_positions(), "rest_volume"); });

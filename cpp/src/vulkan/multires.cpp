@@ -386,7 +386,7 @@ MultiresDeviceFrame VulkanMultires::deform(VulkanDeformer& correction, const Eig
     const char* who = x == &src ? "the correction's Deformer" : "the base Deformer";
     VPFFD_CHECK(x->dev.get() == m.dev.get(), "VulkanMultires: ", who, " runs on device ", x->dev->info.name,
                 ", this frame on ", m.dev->info.name, " (the same VkDevice is needed)");
-    VPFFD_CHECK(same_lattice(x->cpu->lattice(), m.cpu->lattice()), "VulkanMultires: ", who,
+    VPFFD_CHECK(same_lattice(x->topo->lattice, m.cpu->lattice()), "VulkanMultires: ", who,
                 " has another lattice (its control points cannot drive this reconstruction)");
     VPFFD_CHECK(x->precision == m.precision, "VulkanMultires: ", who, " sums in ", precision_name(x->precision),
                 ", this frame in ", precision_name(m.precision));

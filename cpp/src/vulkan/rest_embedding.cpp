@@ -50,7 +50,7 @@
 //   groups each part's slots (as the CPU's part_start) and tiles never straddle parts;
 //   the rest part volumes are summed on the host (part_volumes over the faces grouped
 //   by part, the CPU's own function and face order), their sum is the rest volume.
-// - The CPU Deformer `cpu` (edges, ffd, jacobians, matrices, error messages) follows a
+// - The host Deformer `host` (ffd, jacobians, matrices, error messages) follows a
 //   move lazily: frames do not need it, and synced_cpu() re-embeds it on the host on
 //   its first use after a move.
 
@@ -86,7 +86,7 @@ void VulkanDeformer::Impl::record_embedding(bool offsets) {
   barrier(cb);
   vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
   Push pc;
-  pc.flags = (cpu->outside_policy() == OutsidePolicy::Error ? EM_CLAMP : 0) | (offsets ? EM_OFFSET : 0);
+  pc.flags = (topo->policy == OutsidePolicy::Error ? EM_CLAMP : 0) | (offsets ? EM_OFFSET : 0);
   dispatch(cb, kEmbed, g_vert, pc);
   for (std::uint32_t pass = 0; pass < sort_passes; ++pass) {
     Push s;
@@ -117,8 +117,8 @@ void VulkanDeformer::Impl::record_embedding(bool offsets) {
 void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) {
   VPFFD_CHECK(X.rows() == nv, where, ": ", X.rows(), " vertices, the mesh has ", nv,
               " (the faces stay; give every vertex a new position)");
-  const Lattice& L = cpu->lattice();
-  const bool refuse_outside = cpu->outside_policy() == OutsidePolicy::Error;
+  const Lattice& L = topo->lattice;
+  const bool refuse_outside = topo->policy == OutsidePolicy::Error;
   // embed()'s tests, in the same double arithmetic (lattice/embed.h's rules).
   AxisInterval box[3], reach[3];
   for (int a = 0; a < 3; ++a) {
@@ -221,13 +221,13 @@ void VulkanDeformer::Impl::stage_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
 }
 
 void VulkanDeformer::Impl::refuse_rest(const Eigen::Ref<const RowMatrixX3d>& X, const char* where) const {
-  const Lattice& L = cpu->lattice();
+  const Lattice& L = topo->lattice;
   // The CPU's own checks give the message (first vertex in the caller's order).
   require_finite_rows(X, where);
   try {
-    embed(L, X, cpu->outside_policy());
+    embed(L, X, topo->policy);
   } catch (const InvalidInputError& e) {
-    throw InvalidInputError(std::string(where) + ": " + e.what() + cpu->parts_outside(X));
+    throw InvalidInputError(std::string(where) + ": " + e.what() + vpffd::parts_outside(*topo, X));
   }
   for (Index v = 0; v < nv; ++v)
     for (int a = 0; a < 3; ++a) {
@@ -253,7 +253,7 @@ void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   // The rest volumes wait for their first use, as the CPU Deformer's (frame/rest_volume.h):
   // a plain frame does not read them. Where they might overflow they are summed, and
   // refused, now.
-  const bool eager = !rest_volume_stays_finite(cpu->lattice(), cpu->n_faces(), X);
+  const bool eager = !rest_volume_stays_finite(topo->lattice, topo->faces.rows(), X);
   RestVolumes vols;
   if (eager) {
     try {
@@ -278,7 +278,7 @@ void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
 }
 
 RowMatrixX3d VulkanDeformer::Impl::offset_positions(const Eigen::Ref<const RowMatrixX3d>& O) const {
-  const std::int32_t* part = K > 1 ? cpu->parts().vertex_part.data() : nullptr;
+  const std::int32_t* part = K > 1 ? topo->parts.vertex_part.data() : nullptr;
   RowMatrixX3d X(nv, 3);
   parallel_range(nv, 0, [&](Index b, Index e) {
     for (Index v = b; v < e; ++v) {
@@ -299,9 +299,9 @@ const RowMatrixX3d& VulkanDeformer::Impl::rest_positions() const {
 }
 
 void VulkanDeformer::Impl::offset_rest(const Eigen::Ref<const RowMatrixX3d>& O, const char* where) {
-  const Deformer& c = *cpu;  // its lattice, parts, edges and policy: what no move changes
+  const FrameTopology& c = *topo;  // lattice, parts, edges and policy: what no move changes
   VPFFD_CHECK(O.rows() == K, where, ": ", O.rows(), " offsets, expected one per part (", K,
-              c.has_parts() ? " parts)" : ": the deformer has no parts, so one for the whole mesh)");
+              c.has_parts ? " parts)" : ": the deformer has no parts, so one for the whole mesh)");
   for (Index k = 0; k < O.rows(); ++k)
     VPFFD_CHECK(O.row(k).allFinite(), where, ": offset ", k, " (", O(k, 0), ", ", O(k, 1), ", ", O(k, 2),
                 ") is not finite");
@@ -318,7 +318,7 @@ void VulkanDeformer::Impl::offset_rest(const Eigen::Ref<const RowMatrixX3d>& O, 
         base_box(k, a) = std::numeric_limits<double>::infinity();
         base_box(k, 3 + a) = -std::numeric_limits<double>::infinity();
       }
-    const std::int32_t* part = K > 1 ? c.parts().vertex_part.data() : nullptr;
+    const std::int32_t* part = K > 1 ? c.parts.vertex_part.data() : nullptr;
     for (Index v = 0; v < nv; ++v) {
       const Index k = part ? Index(part[v]) : 0;
       for (int a = 0; a < 3; ++a) {
@@ -328,8 +328,8 @@ void VulkanDeformer::Impl::offset_rest(const Eigen::Ref<const RowMatrixX3d>& O, 
     }
   }
   // stage_rest's tests of the two corners of every part that has vertices.
-  const Lattice& L = c.lattice();
-  const bool refuse_outside = c.outside_policy() == OutsidePolicy::Error;
+  const Lattice& L = c.lattice;
+  const bool refuse_outside = c.policy == OutsidePolicy::Error;
   const ParameterMap to_parameter(L);
   bool ok = true;
   for (int k = 0; k < K && ok; ++k) {
@@ -355,7 +355,7 @@ void VulkanDeformer::Impl::offset_rest(const Eigen::Ref<const RowMatrixX3d>& O, 
     throw InvalidInputError(std::string(where) + ": a vertex moves outside the lattice box");  // not reached
   }
   // Nothing below throws but Vulkan calls.
-  const bool keep_volumes = K > 1 || c.is_closed();
+  const bool keep_volumes = K > 1 || c.closed();
   RestVolumes vols;
   bool eager = false;
   if (!keep_volumes) {
@@ -390,11 +390,12 @@ void VulkanDeformer::Impl::offset_rest(const Eigen::Ref<const RowMatrixX3d>& O, 
 
 const Deformer& VulkanDeformer::Impl::synced_cpu() {
   std::lock_guard<std::mutex> lock(cpu_mutex);
+  if (!host) host = std::make_unique<Deformer>(topo, plan_state);  // shares, embeds nothing
   if (cpu_stale) {
-    cpu->set_rest_vertices(rest_positions());
+    host->set_rest_vertices(rest_positions());
     cpu_stale = false;
   }
-  return *cpu;
+  return *host;
 }
 
 const CorrectionOptions& VulkanDeformer::Impl::plan_options(const CorrectionOptions& opt,
@@ -435,7 +436,7 @@ RowMatrixX3d VulkanDeformer::rest_vertices() const {
 }
 
 double VulkanDeformer::rest_volume(bool allow_open) const {
-  if (!allow_open) require_closed(impl_->cpu->edges(), "rest_volume");
+  if (!allow_open) require_closed(impl_->topo->edges, "rest_volume");
   std::lock_guard<std::mutex> lock(impl_->frame_mutex);
   return impl_->rest_volumes().total;
 }

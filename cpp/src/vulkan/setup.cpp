@@ -44,29 +44,30 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
                                   " has no shaderFloat64: use precision 'float-float' or 'auto'");
   precision = wanted == Precision::Auto ? (dev->info.float64 ? Precision::Float64 : Precision::FloatFloat) : wanted;
   ff = precision == Precision::FloatFloat;
-  const Deformer& c = *cpu;
-  const Lattice& L = c.lattice();
-  const BasisTables& T = c.tables();
-  // The device's vertex slots, for the deformer's life: the CPU Deformer's processing
+  const FrameTopology& c = *topo;
+  const RestState& s = *plan_state;
+  const Lattice& L = c.lattice;
+  const BasisTables& T = c.tables;
+  // The device's vertex slots, for the deformer's life: the CPU frame's processing
   // order (by cell) of the first rest mesh, with its faces and adjacency. The device
   // sorts the slots by cell again after every move (rest_embedding.cpp); at
   // construction that stable sort leaves them in this order.
-  const std::vector<std::int32_t>& order = c.processing_order();
-  const RowMatrixX3i& Fs = c.processing_faces();
-  const VertexFaces& adj = c.processing_adjacency();
-  nv = c.n_vertices();
-  nf = c.n_faces();
-  N = c.n_control_points();
+  const std::vector<std::int32_t>& order = *s.order;
+  const RowMatrixX3i& Fs = processing_faces(c, s);
+  const VertexFaces& adj = processing_adjacency(c, s);
+  nv = c.n_vertices;
+  nf = c.faces.rows();
+  N = c.ties.n_distinct;
   NE = L.n_control_points();
-  const Ties& ties = c.ties();
-  origin = c.origin();
+  const Ties& ties = c.ties;
+  origin = c.origin;
   {
     const double half = 0.5 * (L.box_max - L.box_min).norm();
     scale = std::isfinite(half) && half > 0 ? std::exp2(std::round(std::log2(half))) : 1.0;
   }
   const auto dims = L.dims();
   KKK = T.order[0] * T.order[1] * T.order[2];
-  K = c.n_parts();
+  K = c.parts.count;
   // Not bad input, a limit of this backend: "auto" then falls back to the CPU.
   if (K > MAX_DEVICE_PARTS)
     throw BackendUnavailableError(vpffd::detail::concat("VulkanDeformer: ", K, " parts; the Vulkan backend keeps at most ",
@@ -213,8 +214,8 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   // Deformer, part_face_start) and the part of every slot (parts[] of common.glsl).
   std::vector<std::int32_t> part_map;
   if (K > 1) {
-    const std::vector<std::int32_t>& vp = c.parts().vertex_part;
-    for (Index s : c.part_face_start()) part_map.push_back(static_cast<std::int32_t>(s));
+    const std::vector<std::int32_t>& vp = c.parts.vertex_part;
+    for (Index f : c.face_start) part_map.push_back(static_cast<std::int32_t>(f));
     for (Index i = 0; i < nv; ++i) part_map.push_back(vp[order[i]]);
     // A volume pass: each part in the same number of workgroups, all within `red`'s slot.
     g_part = std::max<std::uint32_t>(1, std::min<std::uint32_t>(g_face, kMaxGroups / std::uint32_t(K)));
@@ -279,7 +280,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   // move: one code path, so the static and moved frames cannot drift apart.
   slot = order;
   record_embedding();
-  embed_rest(c.rest_vertices(), "VulkanDeformer", /*defer=*/false);
+  embed_rest(*s.V, "VulkanDeformer", /*defer=*/false);
 
   // No constraints until a frame has some: every frame's solve reads the block.
   begin();

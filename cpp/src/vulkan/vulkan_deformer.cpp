@@ -50,10 +50,12 @@ VulkanDeformer::VulkanDeformer(const Eigen::Ref<const RowMatrixX3d>& V, const Ei
                                Lattice L, OutsidePolicy policy, const std::string& device,
                                Precision precision, const MeshParts* parts)
     : impl_(std::make_unique<Impl>()) {
-  // The CPU Deformer validates the input exactly as the CPU backend does (the parts'
-  // checks included) and keeps the exact (float64) rest volume, the edge report and
-  // the embedding.
-  impl_->cpu = std::make_unique<Deformer>(V, F, std::move(L), policy, 0, parts);
+  // The CPU frame layer's topology and first rest state: the input validated exactly as
+  // the CPU backend does (the parts' checks included), the edge report, the embedding
+  // and the exact (float64) rest volume, shared with the host Deformer of cpu().
+  impl_->topo = make_topology(V, F, std::move(L), policy, parts);
+  MoveScratch scratch;
+  impl_->plan_state = vpffd::embed_rest(*impl_->topo, nullptr, V, 0, "Deformer", scratch);
   impl_->build(device, precision);
 }
 
@@ -103,7 +105,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   static const char axis_name[3] = {'x', 'y', 'z'};
   const auto t_start = std::chrono::steady_clock::now();
   Impl& m = *this;
-  const Deformer& cpu = *m.cpu;  // of the construction's rest mesh after a move: see plan_options
+  const FrameTopology& topo = *m.topo;
   const Index N = m.N;
   // One rest state from the options' checks to the read back: a move (which takes
   // this lock) waits for the frame, and the frame for it.
@@ -113,10 +115,10 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
 
   // --- options: the CPU backend's own checks (the free control points and the
   // method included), so both refuse the same input ----------------------------------
-  FramePlan pl = cpu.plan(P, po);
+  FramePlan pl = frame::make_plan(topo, *m.plan_state, P, po);  // the rest state: see plan_options
   // The default target is the rest volume this deformer computed (rest_embedding.cpp):
   // the same number at construction and after any move; with parts each part's.
-  const bool has_parts = cpu.has_parts();
+  const bool has_parts = topo.has_parts;
   const int K = m.K;
   if (opt.preserve_volume && std::isnan(opt.target_volume) && opt.part_targets.empty()) {
     const RestVolumes& rest = m.rest_volumes();  // summed here on the first such frame after a move
@@ -139,7 +141,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   const int k = correcting ? naxes * opt.rounds : 0;
   Shape shape;
   shape.measure = measure;
-  shape.open = !cpu.is_closed();
+  shape.open = !topo.closed();
   shape.normals = normals != nullptr || out_normals != nullptr;
   DeformResult res;
   res.offsets = RowMatrixX3d::Zero(N, 3);
@@ -178,7 +180,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   {
     // The extended lattice's control points (periodic ties: copies, "shift" seams add
     // the extent in double, as the CPU's expand_points), each rounded once to float32.
-    const RowMatrixX3d Q = expand_points(cpu.ties(), P);  // a copy of P without ties
+    const RowMatrixX3d Q = expand_points(topo.ties, P);  // a copy of P without ties
     float* p = static_cast<float*>(m.up_P.mapped());
     for (Index c = 0; c < m.NE; ++c)
       for (int a = 0; a < 3; ++a) p[3 * c + a] = static_cast<float>((Q(c, a) - m.origin[a]) / m.scale);
@@ -193,7 +195,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     fr[FR_MAX_INVW] = inv_weight.maxCoeff();
     fr[FR_HI] = m.cons.hi;
     for (int a = 0; a < 3; ++a) {
-      const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, expand_column(cpu.ties(), P.col(a), a));
+      const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, expand_column(topo.ties, P.col(a), a));
       for (size_t i = 0; i < nc; ++i) fr[FR_RHS + a * nc + i] = rhs[i] / s;
     }
     // Parts: each one's target volume (solve.comp takes its share of what it misses).
@@ -334,7 +336,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     }
   }
   if (has_parts && opt.preserve_volume) res.part_targets = pl.part_targets;
-  res.constraint_error = constraint_error(rows, expand_points(cpu.ties(), res.control_points), opt.constraints);
+  res.constraint_error = constraint_error(rows, expand_points(topo.ties, res.control_points), opt.constraints);
   // Under the frame's lock: another thread's frame would overwrite rb_X.
   const auto t_unpack = std::chrono::steady_clock::now();
   if (read_vertices && out_vertices)

@@ -64,6 +64,14 @@ class Deformer {
       : topo_(make_topology(V, F, std::move(L), policy, parts)),
         state_(embed_rest(*topo_, nullptr, V, threads, "Deformer", scratch_)) {}
 
+  /// A Deformer on a topology and rest state built elsewhere (make_topology, embed_rest):
+  /// it shares them and embeds nothing. The Vulkan backend's host side is one.
+  Deformer(std::shared_ptr<const FrameTopology> topology, std::shared_ptr<const RestState> state)
+      : topo_(std::move(topology)), state_(std::move(state)) {
+    VPFFD_CHECK(topo_ && state_ && state_->V && state_->V->rows() == topo_->n_vertices,
+                "Deformer: the rest state is not one of this topology");
+  }
+
   Deformer(const Deformer&) = delete;
   Deformer& operator=(const Deformer&) = delete;
 
