@@ -38,10 +38,17 @@ def _path(path, where: str) -> bytes:
     return os.fsencode(path)
 
 
+def _require_mesh_io(where: str) -> None:
+    if not _core.has_mesh_io:
+        raise BackendUnavailableError(f"{where}: this build of vpffd has no mesh file I/O (zlib was not found "
+                                      "at build time; Debian/Ubuntu: apt-get install zlib1g-dev, then rebuild)")
+
+
 def _require_openmesh(where: str) -> None:
     if not _core.has_openmesh:
-        raise BackendUnavailableError(f"{where}: this build of vpffd has no mesh file I/O (OpenMesh was not found "
-                                      "at build time; install libopenmesh-dev and rebuild)")
+        raise BackendUnavailableError(f"{where}: this build of vpffd writes no mesh files (OpenMesh was not found "
+                                      "at build time; Debian/Ubuntu: apt-get install libopenmesh-dev, then "
+                                      "rebuild); it reads .obj, .off, .ply and .om without it")
 
 
 def load_mesh(path, orient: bool = False, return_normals: bool = False):
@@ -92,7 +99,7 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
         ``path`` is not a file name.
     """
     p = _path(path, "load_mesh")
-    _require_openmesh("load_mesh")
+    _require_mesh_io("load_mesh")  # STL without OpenMesh: C++ refuses, naming the package
     try:
         d = _core.read_mesh(p)
     except MemoryError as e:  # the arrays' conversion to NumPy; C++ turns its own bad_alloc into MeshIOError
