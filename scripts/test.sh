@@ -15,4 +15,6 @@ cmake --build build/example
 build/example/squash_sphere
 if [ -x build/example/gpu_frame ]; then build/example/gpu_frame; fi
 if [ -x build/example/mesh_file ]; then build/example/mesh_file; fi
+# The binary wheel from setup.sh's build folder (seconds); tests/python/test_wheel.py installs it.
+bash scripts/build_wheel.sh
 python -m pytest tests/python -q "$@"
