@@ -48,5 +48,42 @@ echo "build_wheel: bundling the shared libraries (auditwheel)"
 PATH="$PWD/$VENV/bin:$PATH" "$VENV/bin/auditwheel" repair -w dist "$wheel" >"$raw/repair.log" 2>&1 ||
   { cat "$raw/repair.log" >&2; exit 1; }
 repaired=$(ls dist/vpffd-*.whl)
+# The bundled libraries' licences (Apache-2.0, BSD, GPL with the GCC runtime
+# exception) require their notices to travel with the copies: each Debian package
+# that auditwheel's SBOM names gives its copyright file to the wheel's licenses/.
+"$PY" - "$repaired" <<'PYEOF'
+import base64, hashlib, json, sys, urllib.parse, zipfile
+from pathlib import Path
+
+whl = Path(sys.argv[1])
+with zipfile.ZipFile(whl) as z:
+    entries = {i.filename: z.read(i) for i in z.infolist()}
+    infos = z.infolist()
+dist_info = next(n.split("/")[0] for n in entries if n.endswith(".dist-info/RECORD"))
+sbom = json.loads(entries[f"{dist_info}/sboms/auditwheel.cdx.json"])
+added = {}
+for c in sbom["components"]:
+    if not c["purl"].startswith("pkg:deb/"):
+        continue
+    src = Path("/usr/share/doc") / c["name"] / "copyright"
+    if not src.is_file():
+        sys.exit(f"build_wheel: {src} is missing; the wheel would bundle {c['name']} without its licence")
+    added[f"{dist_info}/licenses/{c['name']}.copyright"] = src.read_bytes()
+record = entries[f"{dist_info}/RECORD"].decode().splitlines()
+for name, data in added.items():
+    digest = base64.urlsafe_b64encode(hashlib.sha256(data).digest()).rstrip(b"=").decode()
+    record.append(f"{name},sha256={digest},{len(data)}")
+tmp = whl.with_suffix(".tmp")
+with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as out:
+    for info in infos:
+        if info.filename == f"{dist_info}/RECORD":
+            continue
+        out.writestr(info, entries[info.filename])
+    for name, data in added.items():
+        out.writestr(name, data)
+    out.writestr(f"{dist_info}/RECORD", "\n".join(record) + "\n")
+tmp.replace(whl)
+print(f"build_wheel: licences of {', '.join(sorted({n.split('/')[-1][:-10] for n in added}))} added")
+PYEOF
 "$VENV/bin/auditwheel" show "$repaired"
 echo "build_wheel: $repaired"
