@@ -45,7 +45,7 @@ wheel=$(ls "$raw"/vpffd-*.whl)
 mkdir -p dist
 rm -f dist/vpffd-*.whl
 echo "build_wheel: bundling the shared libraries (auditwheel)"
-PATH="$PWD/$VENV/bin:$PATH" "$VENV/bin/auditwheel" repair -w dist "$wheel" >"$raw/repair.log" 2>&1 ||
+PATH="$(cd "$VENV/bin" && pwd):$PATH" "$VENV/bin/auditwheel" repair -w dist "$wheel" >"$raw/repair.log" 2>&1 ||
   { cat "$raw/repair.log" >&2; exit 1; }
 repaired=$(ls dist/vpffd-*.whl)
 # The bundled libraries' licences (Apache-2.0, BSD, GPL with the GCC runtime

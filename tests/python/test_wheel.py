@@ -183,3 +183,11 @@ def test_runs_with_the_system_copies_hidden(env, tmp_path):
     mounts = "".join(f"mount --bind /dev/null '{p}' && " for p in hidden)
     out = _run_probe(py, tmp_path, ["unshare", "-m", "sh", "-c", mounts + 'exec "$0" "$@"'])
     _check_probe(out, site)
+
+
+def test_bundled_libraries_bring_their_licences(env):
+    _, site = env
+    (info,) = site.glob("vpffd-*.dist-info")
+    licences = {p.name for p in (info / "licenses").glob("*.copyright")}
+    for package in ("libembree3", "libtbb", "libopenmesh", "libgomp", "libosdcpu"):
+        assert any(n.startswith(package) for n in licences), f"no licence of {package} in {licences}"
