@@ -39,3 +39,13 @@ def test_stl_and_writing_name_the_package(tmp_path):
     ico = vpffd.shapes.icosphere(1)
     with pytest.raises(vpffd.BackendUnavailableError, match="libopenmesh-dev"):
         vpffd._core.write_mesh(str(tmp_path / "out.ply"), ico.vertices, ico.faces)
+
+
+def test_cli_refuses_before_any_work(tmp_path, capsys):
+    from vpffd.cli.main import main
+    src = tmp_path / "in.obj"
+    src.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    assert main(["deform", str(src), str(tmp_path / "out.ply"), "--squash", "0.5"]) == 1
+    err = capsys.readouterr().err
+    assert "libopenmesh-dev" in err and "out.ply" in err
+    assert not (tmp_path / "out.ply").exists()
