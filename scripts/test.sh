@@ -19,4 +19,6 @@ if [ -x build/example/mesh_file ]; then build/example/mesh_file; fi
 # The documentation site, strictly (broken links and anchors fail; offline, ~3 s).
 echo "test: building the documentation site into build/site"
 NO_MKDOCS_2_WARNING=1 python -m mkdocs build --strict --quiet --site-dir build/site
+# The binary wheel from setup.sh's build folder (seconds); tests/python/test_wheel.py installs it.
+bash scripts/build_wheel.sh
 python -m pytest tests/python -q "$@"

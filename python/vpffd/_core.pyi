@@ -8,7 +8,7 @@ import collections.abc
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['BackendUnavailableError', 'CorrectionOptions', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'Multires', 'MultiresFFD', 'RayScene', 'RbfMap', 'RbfRegions', 'RbfWeights', 'SolverError', 'SubdivAffineGroup', 'SubdivisionMultires', 'VulkanDeformer', 'VulkanMultires', 'VulkanRbfFrame', 'VulkanSubdivFrame', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'cone_volumes', 'decimate_mesh', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_openmesh', 'has_openmp', 'has_opensubdiv', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'subdivision_decompose', 'subdivision_decompose_decimated', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
+__all__: list[str] = ['BackendUnavailableError', 'CorrectionOptions', 'Deformer', 'DeviceError', 'InvalidInputError', 'LatticeSpec', 'MeshIOError', 'Multires', 'MultiresFFD', 'RayScene', 'RbfMap', 'RbfRegions', 'RbfWeights', 'SolverError', 'SubdivAffineGroup', 'SubdivisionMultires', 'VulkanDeformer', 'VulkanMultires', 'VulkanRbfFrame', 'VulkanSubdivFrame', 'basis_functions', 'basis_functions_fast', 'bend', 'box_mesh', 'camera_ray', 'check_folds', 'check_mesh', 'clamped_uniform_knots', 'cone_volumes', 'decimate_mesh', 'deformed_normals_exact', 'deformed_normals_tangent', 'edge_report', 'ffd_points', 'greville', 'has_embree', 'has_mesh_io', 'has_openmesh', 'has_openmp', 'has_opensubdiv', 'has_vulkan', 'icosphere', 'max_fold_depth', 'max_subcells_per_cell', 'max_threads', 'mesh_formats', 'orient_faces', 'periodic_uniform_knots', 'point_basis_matrix', 'read_mesh', 'require_closed', 'scale', 'signed_volume', 'subdivision_decompose', 'subdivision_decompose_decimated', 'taper', 'twist', 'validate_mesh', 'vertex_normals', 'vulkan_devices', 'write_mesh']
 class InvalidInputError(ValueError):
     pass
 class SolverError(RuntimeError):
@@ -792,6 +792,7 @@ def write_mesh(path: str, vertices: typing.Annotated[numpy.typing.NDArray[numpy.
     """
 __version__: str = '0.1.0'
 has_embree: bool = True
+has_mesh_io: bool = True
 has_openmesh: bool = True
 has_opensubdiv: bool = True
 has_vulkan: bool = True

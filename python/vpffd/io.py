@@ -50,10 +50,17 @@ def _file_size(p: bytes) -> str:
     return f"{n / 2 ** 20:.1f} MiB" if n >= 2 ** 20 else f"{n / 2 ** 10:.1f} KiB"
 
 
+def _require_mesh_io(where: str) -> None:
+    if not _core.has_mesh_io:
+        raise BackendUnavailableError(f"{where}: this build of vpffd has no mesh file I/O (zlib was not found "
+                                      "at build time; Debian/Ubuntu: apt-get install zlib1g-dev, then rebuild)")
+
+
 def _require_openmesh(where: str) -> None:
     if not _core.has_openmesh:
-        raise BackendUnavailableError(f"{where}: this build of vpffd has no mesh file I/O (OpenMesh was not found "
-                                      "at build time; install libopenmesh-dev and rebuild)")
+        raise BackendUnavailableError(f"{where}: this build of vpffd writes no mesh files (OpenMesh was not found "
+                                      "at build time; Debian/Ubuntu: apt-get install libopenmesh-dev, then "
+                                      "rebuild); it reads .obj, .off, .ply and .om without it")
 
 
 def load_mesh(path, orient: bool = False, return_normals: bool = False):
@@ -104,7 +111,7 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
         ``path`` is not a file name.
     """
     p = _path(path, "load_mesh")
-    _require_openmesh("load_mesh")
+    _require_mesh_io("load_mesh")  # STL without OpenMesh: C++ refuses, naming the package
     t0 = time.perf_counter()
     try:
         d = _core.read_mesh(p)

@@ -132,6 +132,7 @@ def test_bad_values_after_parsing_exit_2(tmp_path, capsys):
         assert "--" in _one_line_error(capsys.readouterr().err, "vpffd bench")
 
 
+@needs_io
 def test_bend_about_x_needs_no_toward(tmp_path, capsys):
     src = _write_obj(tmp_path / "ball.obj", shapes.icosphere(1))
     assert main(["deform", str(src), str(tmp_path / "o.obj"), "--axis", "x", "--bend", "30"]) == 0

@@ -345,6 +345,7 @@ def test_decimation_keeps_the_topology(name, euler):
     assert sm.control_mesh.is_closed
 
 
+@needs_osd
 @pytest.mark.parametrize("name,scheme", CASES[:2])
 def test_preserve_volume_axes_weights_and_fixed_points(name, scheme):
     mesh, sm = decomposition(name, scheme)
@@ -375,6 +376,7 @@ def test_preserve_volume_axes_weights_and_fixed_points(name, scheme):
     assert rw.base_volume_error < 1e-11
 
 
+@needs_osd
 def test_preserve_volume_refuses_bad_options():
     mesh, sm = decomposition(*CASES[0])
     C = np.array(sm.control_points)
@@ -390,6 +392,7 @@ def test_preserve_volume_refuses_bad_options():
     np.testing.assert_array_equal(C, sm.control_points)
 
 
+@needs_osd
 @pytest.mark.parametrize("name,scheme", CASES[:2])
 def test_preserve_volume_with_point_constraints(name, scheme):
     mesh, sm = decomposition(name, scheme)

@@ -34,8 +34,14 @@ PYBIND11_MODULE(_core, m) {
 #else
   m.attr("has_vulkan") = false;
 #endif
-#ifdef VPFFD_HAS_OPENMESH
+#ifdef VPFFD_HAS_MESH_IO
   vpffd::bindings::bind_io(m);
+  m.attr("has_mesh_io") = true;
+#else
+  m.attr("has_mesh_io") = false;
+#endif
+  // Without OpenMesh, vpffd's own readers still take OBJ, OFF, PLY and OM.
+#ifdef VPFFD_HAS_OPENMESH
   m.attr("has_openmesh") = true;
 #else
   m.attr("has_openmesh") = false;
