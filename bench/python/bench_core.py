@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""CPU benchmark of the volume-preserving frame (issue 2's table).
+"""CPU benchmark of the volume-preserving frame (the README's CPU table).
 
     .venv/bin/python bench/python/bench_core.py [--repeats 7] [--no-shared] [--no-csr]
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Benchmark of displaced subdivision surface frames (paper 002, Table I).
+"""Benchmark of displaced subdivision surface frames (Marinov et al., Table I).
 
     .venv/bin/python bench/python/bench_subdiv.py [--repeats 15] [--no-shared] [--no-dragon] [--out FILE.md]
 
@@ -145,7 +145,7 @@ def main():
         print(s, flush=True)
         lines.append(s)
 
-    out("# Displaced subdivision surfaces: frames per second (paper 002, Table I)")
+    out("# Displaced subdivision surfaces: frames per second (Marinov et al., Table I)")
     out("")
     out(f"machine: {cpu_name()}, {os.cpu_count()} CPUs (a shared virtual machine: other work runs beside, "
         f"so the figures are ratios within this run); load average {load()} at the start; "

@@ -307,7 +307,7 @@ def _suggest_unfolded(args, d, P, cons) -> None:
 
 def _deform_multires(args, mesh, lat, P, preserve, done, cons, bar) -> int:
     """``deform --multires SMOOTHING``: the edit applied to the mesh's smooth base,
-    details rebuilt along the deformed base normals (paper 002); with --preserve the
+    details rebuilt along the deformed base normals (Marinov et al.); with --preserve the
     base mesh's volume is kept exactly, with --drag the lattice map takes the dragged
     points to their targets. --render draws rest | FFD of the fine mesh | multiresolution
     with what each did to the details."""
@@ -404,7 +404,7 @@ def _cmd_subdiv(args) -> int:
 
 
 def _subdiv(args, bar) -> int:
-    """``vpffd subdiv``: the mesh as a displaced subdivision surface (paper 002, §5),
+    """``vpffd subdiv``: the mesh as a displaced subdivision surface (Marinov et al., §5),
     control points moved by the drags, the detailed mesh rebuilt and written."""
     import numpy as np
 
@@ -623,7 +623,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = add_parser("subdiv", formatter_class=fmt, help="edit a mesh as a displaced subdivision surface",
                        description="Represents a detailed mesh as the limit surface of a coarse control mesh "
                        "(Loop or Catmull-Clark, decimated from the mesh and fitted) plus a normal displacement "
-                       "per vertex (paper 002, section 5), moves control points so that the dragged points "
+                       "per vertex (Marinov et al., section 5), moves control points so that the dragged points "
                        "follow, rebuilds the details on the deformed surface and writes the result.")
     p.add_argument("input", metavar="IN", help="mesh file to read (the formats of vpffd.load_mesh)")
     p.add_argument("output", metavar="OUT", help="mesh file to write; the extension picks the format "

@@ -1,4 +1,4 @@
-"""The demo's displaced subdivision surface scene (paper 002, §5): a detailed body
+"""The demo's displaced subdivision surface scene (Marinov et al., §5): a detailed body
 (a bumpy sphere stretched along x, made in code) decomposed into a Loop control mesh
 of a few hundred points, its limit surface and a normal displacement per vertex;
 the three control points at the front are pulled out along +x over a few frames and
