@@ -94,10 +94,10 @@ inline void relabel_fans(PaddedFans& f, const std::vector<std::int32_t>& to, int
   });
 }
 
-/// relabel_fans into a copy: the source stays as it is (a deformer's older rest state
-/// may still be read by frames in flight).
-inline PaddedFans relabelled_fans(const PaddedFans& f, const std::vector<std::int32_t>& to, int threads = 0) {
-  PaddedFans out;
+/// relabel_fans into `out` (its buffers reused): the source stays as it is (a
+/// deformer's older rest state may still be read by frames in flight).
+inline void relabel_fans_into(const PaddedFans& f, const std::vector<std::int32_t>& to, PaddedFans& out,
+                              int threads = 0) {
   out.width = f.width;
   out.head.resize(f.head.size());
   out.tail_ptr = f.tail_ptr;
@@ -107,6 +107,11 @@ inline PaddedFans relabelled_fans(const PaddedFans& f, const std::vector<std::in
     for (Index k = b * w; k < e * w; ++k) out.head[k] = to[f.head[k]];
     for (Index k = f.tail_ptr[b]; k < f.tail_ptr[e]; ++k) out.tail[k] = to[f.tail[k]];
   });
+}
+
+inline PaddedFans relabelled_fans(const PaddedFans& f, const std::vector<std::int32_t>& to, int threads = 0) {
+  PaddedFans out;
+  relabel_fans_into(f, to, out, threads);
   return out;
 }
 

@@ -261,6 +261,8 @@ class Deformer {
       bytes += double(scratch_.embedding.size()) * Embedding::bytes_per_point +
                double(scratch_.cells.size()) * per_int +
                (scratch_.positions ? double(scratch_.positions->size()) * sizeof(double) : 0.0);
+      if (const WeightAdjacency* a = scratch_.adjacency.get())
+        bytes += double(a->fans.bytes()) + double(a->weight_order.size() + a->order.size()) * per_int;
     }
     return bytes / double(n_vertices());
   }

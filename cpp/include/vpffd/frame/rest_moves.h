@@ -33,6 +33,7 @@ struct MoveScratch {
   std::vector<std::int32_t> cells;
   Embedding embedding;
   std::shared_ptr<RowMatrixX3d> positions;
+  std::shared_ptr<WeightAdjacency> adjacency;
 
   /// Storage for #V x 3 positions: a recycled matrix or a new one.
   std::shared_ptr<RowMatrixX3d> take_positions(Index nv) {
@@ -57,6 +58,14 @@ inline void recycle(std::shared_ptr<const RestState>&& old, MoveScratch& scratch
   if (s.V.use_count() == 1) {
     std::atomic_thread_fence(std::memory_order_acquire);
     scratch.positions = std::const_pointer_cast<RowMatrixX3d>(std::move(s.V));
+  }
+  // The adjacency this state relabelled from is read by no later state once this one
+  // is gone (they start from this state's own, or from that of a state after it).
+  if (s.adjacency_spare) {
+    scratch.adjacency = std::move(s.adjacency_spare);
+  } else if (s.adjacency_source && s.adjacency_source.use_count() == 1) {
+    std::atomic_thread_fence(std::memory_order_acquire);
+    scratch.adjacency = std::const_pointer_cast<WeightAdjacency>(std::move(s.adjacency_source));
   }
 }
 
@@ -111,7 +120,7 @@ inline void set_seam_shifts(const FrameTopology& t, RestState& s) {
 /// What depends on the processing order alone: shared with `prev` where the order is
 /// the same (a moved object often keeps it: no vertex changed cell, or all moved
 /// together), else built anew on first use, the adjacency relabelled from prev's.
-inline void set_numbering(RestState& s, const RestState* prev, bool same_order) {
+inline void set_numbering(RestState& s, const RestState* prev, bool same_order, MoveScratch& scratch) {
   if (prev && same_order) {
     s.order = prev->order;
     s.rank = prev->rank;
@@ -125,6 +134,7 @@ inline void set_numbering(RestState& s, const RestState* prev, bool same_order) 
   s.face_lists = std::make_shared<Lazy<VertexFaces>>();
   s.adjacency = std::make_shared<Lazy<std::shared_ptr<const WeightAdjacency>>>();
   if (prev) s.adjacency_source = adjacency_source_after(*prev);
+  s.adjacency_spare = std::move(scratch.adjacency);
 }
 
 }  // namespace detail
@@ -195,7 +205,7 @@ inline std::shared_ptr<RestState> embed_rest(const FrameTopology& t, const RestS
     s->rank = std::make_shared<const std::vector<std::int32_t>>(inverse_order(order, threads));
     s->order = std::make_shared<const std::vector<std::int32_t>>(std::move(order));
   }
-  detail::set_numbering(*s, prev, same_order);
+  detail::set_numbering(*s, prev, same_order, scratch);
   detail::set_runs(t, *s, threads);
   detail::set_seam_shifts(t, *s);
   if (!prev) {
@@ -300,7 +310,7 @@ std::shared_ptr<RestState> move_parts(const FrameTopology& t, const RestState& p
     s->order = std::make_shared<const std::vector<std::int32_t>>(std::move(order));
     s->rank = std::make_shared<const std::vector<std::int32_t>>(std::move(rank));
   }
-  detail::set_numbering(*s, &prev, !reordered);
+  detail::set_numbering(*s, &prev, !reordered, scratch);
   detail::set_runs(t, *s, threads);
   detail::set_seam_shifts(t, *s);
   return s;

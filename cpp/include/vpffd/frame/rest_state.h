@@ -65,6 +65,9 @@ struct RestState {
   std::shared_ptr<const Lazy<std::shared_ptr<const WeightAdjacency>>> adjacency;
   /// Where `adjacency` is relabelled from: the last earlier state's that was built.
   std::shared_ptr<const WeightAdjacency> adjacency_source;
+  /// Buffers of an adjacency no state reads any more (rest_moves.h's recycle), for the
+  /// one build of `adjacency` to write into; read and taken only inside that build.
+  mutable std::shared_ptr<WeightAdjacency> adjacency_spare;
 };
 
 /// The rest volumes of V over the topology's faces (each part's with parts).
@@ -132,7 +135,10 @@ inline std::shared_ptr<const WeightAdjacency> build_weight_adjacency(const Frame
 /// between the two states).
 inline std::shared_ptr<const WeightAdjacency> relabel_weight_adjacency(const FrameTopology& t, const RestState& s,
                                                                        const WeightAdjacency& src, int threads) {
-  auto a = std::make_shared<WeightAdjacency>();
+  // The state's spare buffers when it has them: a moving object's frames then do not
+  // fault in fresh pages for the fans on every move.
+  std::shared_ptr<WeightAdjacency> a = s.adjacency_spare ? std::move(s.adjacency_spare)
+                                                         : std::make_shared<WeightAdjacency>();
   const Index nv = t.n_vertices;
   const std::vector<std::int32_t>& order = *s.order;
   const std::vector<std::int32_t>& rank = *s.rank;
@@ -141,7 +147,7 @@ inline std::shared_ptr<const WeightAdjacency> relabel_weight_adjacency(const Fra
     for (Index i = b; i < e; ++i) old_to_new[i] = rank[src.order[i]];
   });
   if (t.closed()) {
-    a->fans = relabelled_fans(src.fans, old_to_new, threads);
+    relabel_fans_into(src.fans, old_to_new, a->fans, threads);
     a->weight_order.resize(nv);
     parallel_range(nv, threads, [&](Index b, Index e) {
       for (Index j = b; j < e; ++j) a->weight_order[j] = old_to_new[src.weight_order[j]];
