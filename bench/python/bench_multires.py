@@ -1,7 +1,8 @@
 #!/usr/bin/env python
-"""Benchmark of multiresolution frames (issue 12, paper 002's Table II).
+"""Benchmark of multiresolution frames (paper 002's Table II).
 
     .venv/bin/python bench/python/bench_multires.py [--sizes 6 7 8] [--repeats 5] [--no-shared] [--no-vulkan]
+        [--meshes dragon bunny armadillo] [--no-rbf] [--rbf-handles 100] [--no-accuracy]
 
 Per mesh, on the CPU with 1 and 2 threads and on the first suitable Vulkan device
 (a "vulkan" row; on a machine without a GPU that is lavapipe, Mesa's CPU driver, so
@@ -26,13 +27,26 @@ frame, then VulkanMultires of its control points; "fine" adds the base's FFD), t
 route before the reconstruction became a tail of the Deformer's submission. Then the
 approximate-normal error table (mean / 95th percentile / max angle to the normals
 of the deformed fine mesh) for a moderate edit and two extreme ones, at several
-smoothing strengths. Bumpy icospheres are generated in code; the dragon is read
+smoothing strengths.
+
+The RBF rows (paper 002 §6, ``vpffd.RBFDeformer`` in place of the lattice), per mesh on
+the same decomposition, threads and device, in a second table beside the plain FFD of
+the same row:
+  * general mode: ``--rbf-handles`` handle points spread over the mesh (every
+    V / H-th vertex) moved by a smooth displacement; a frame is the back-substitution
+    and one blocked pass over the foot points (RbfMap.solve + RbfMap.deform: positions
+    and normals, as the FFD's multiresolution frame); CPU only (no device frame);
+  * regions mode: deformable the 70 % of vertices highest in z, one handle region
+    (the top 5 %) moved by one affine map, constraint points thinned to 2 % of the
+    diagonal; a frame is
+    the O(V K) pass over the precomputed basis (RbfRegions.deform: positions, normals
+    and base vertices), on the CPU and, where a device is found, on Vulkan
+    (VulkanRbfFrame, one dispatch, timed end to end on the host). Bumpy icospheres are generated in code; the dragon is read
 from ../shared/data/meshes when present. The load average is printed: the
 figures are ratios within one run on one machine.
 """
 import argparse
 import os
-import platform
 import time
 from pathlib import Path
 
@@ -40,6 +54,7 @@ import numpy as np
 
 import vpffd
 from vpffd import _core
+from vpffd.cli.benchmark import cpu_model
 from vpffd.normals import angles_deg
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "meshes"
@@ -55,11 +70,16 @@ def median_ms(f, repeats):
     return 1e3 * float(np.median(t))
 
 
-def meshes(sizes, shared):
+SCANS = {"bunny": "bunny_watertight.ply", "armadillo": "armadillo.ply", "horse": "horse.ply",
+         "dragon": "dragon_vrip_welded.ply.gz"}
+
+
+def meshes(sizes, shared, scans=("dragon",)):
     for s in sizes:
         yield f"bumpy ico{s}", vpffd.shapes.bumpy_sphere(s)
-    if shared and (SHARED / "dragon_vrip_welded.ply.gz").exists():
-        yield "dragon", vpffd.load_mesh(SHARED / "dragon_vrip_welded.ply.gz")
+    for name in scans if shared else ():
+        if (SHARED / SCANS[name]).exists():
+            yield name, vpffd.load_mesh(SHARED / SCANS[name])
 
 
 def pull_four(lat, frac=0.2):
@@ -109,6 +129,51 @@ def speed_vulkan(name, mesh, mr, lat, P, repeats, selector):
     row = (name, mesh.n_vertices, mesh.n_faces, "vulkan", t_ffd, t_ffdn, t_mr, t_vol, t_mrvol,
            mt / (t_ffd / 1e3), mt / (t_ffdn / 1e3), mt / (t_mr / 1e3))
     return row, float(np.median(gpu)), {"base": (t_mrvol, t_two["base"]), "fine": (t_mrfine, t_two["fine"])}
+
+
+def rbf_setting(mesh, n_handles):
+    """The RBF rows' edits: (general handles (H, 3), their targets (H, 3), deformable
+    mask (V,), handle region indices, one affine 4 x 4 map)."""
+    V = mesh.vertices
+    diag = float(np.linalg.norm(np.ptp(V, axis=0)))
+    H = V[np.linspace(0, len(V) - 1, n_handles).astype(int)]
+    c = V.mean(axis=0)
+    # A smooth displacement of the handles: a bend-like sway growing with height.
+    h = (H[:, 2] - c[2]) / diag
+    targets = H + 0.1 * diag * np.stack([h ** 2, 0.5 * h, np.zeros_like(h)], axis=1)
+    z = V[:, 2]
+    deformable = z > np.quantile(z, 0.3)
+    handle = np.flatnonzero(z > np.quantile(z, 0.95))
+    a = np.radians(20.0)
+    T = np.eye(4)
+    T[:3, :3] = [[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]]
+    top = V[handle].mean(axis=0)
+    T[:3, 3] = top - T[:3, :3] @ top + [0.1 * diag, 0.0, 0.05 * diag]
+    return H, targets, deformable, handle, T
+
+
+def speed_rbf(mr, mesh, n_handles, repeats, vk):
+    """The RBF rows of one mesh: [(mode, threads, H, frame ms)] for the general mode
+    on 1 and 2 threads and the regions mode on 1 and 2 threads and on Vulkan."""
+    H, targets, deformable, handle, T = rbf_setting(mesh, n_handles)
+    out = []
+    g = vpffd.RBFDeformer(mr, H)
+    m = mr._m
+    for threads in (1, 2):
+        out.append(("RBF general", threads, len(H),
+                    median_ms(lambda: g._rbf.deform(m, g._rbf.solve(targets), threads), repeats)))
+    # Constraint points 2 % of the diagonal apart: a few hundred on any mesh, so the
+    # one-time (H+4)^2 factorisation stays small (the frame does not depend on H).
+    diag = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
+    rd = vpffd.RBFDeformer(mr, deformable=deformable, handle_regions=[handle], spacing=0.02 * diag)
+    Ts = [T]
+    for threads in (1, 2):
+        out.append(("RBF regions", threads, rd.n_handles, median_ms(lambda: rd._regions.deform(Ts, threads),
+                                                                    repeats)))
+    if vk is not None:
+        frame = rd._vulkan_frame(vk[0], None)
+        out.append(("RBF regions", "vulkan", rd.n_handles, median_ms(lambda: frame.deform(Ts), repeats)))
+    return out
 
 
 def speed(name, mesh, smoothing, shape, repeats):
@@ -166,8 +231,13 @@ def main():
     ap.add_argument("--no-shared", action="store_true")
     ap.add_argument("--no-vulkan", action="store_true", help="skip the Vulkan row")
     ap.add_argument("--accuracy-size", type=int, default=5, help="icosphere for the normal-error table")
+    ap.add_argument("--meshes", nargs="*", default=["dragon"], choices=sorted(SCANS),
+                    help="scans read from ../shared/data/meshes (with --no-shared: none)")
+    ap.add_argument("--no-rbf", action="store_true", help="skip the RBF rows")
+    ap.add_argument("--rbf-handles", type=int, default=100, help="handle points of the general RBF rows")
+    ap.add_argument("--no-accuracy", action="store_true", help="skip the normal-error table")
     a = ap.parse_args()
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
+    print(f"machine: {cpu_model()}, {os.cpu_count()} CPUs, "
           f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f}; "
           f"lattice {a.lattice}^3 cubic, smoothing {a.smoothing:g}, medians of {a.repeats}")
     print(f"bytes per vertex a frame reads: plain FFD 36 (embedding) + the vertex; multiresolution "
@@ -182,7 +252,8 @@ def main():
               + f"; multiresolution {_core.VulkanMultires.frame_bytes_per_vertex} bytes per vertex on the device "
               "(float32)")
     acc_meshes = []
-    for name, mesh in meshes(a.sizes, not a.no_shared):
+    rbf_rows = []
+    for name, mesh in meshes(a.sizes, not a.no_shared, a.meshes):
         mr, t_dec, rows = speed(name, mesh, a.smoothing, (a.lattice,) * 3, a.repeats)
         gpu_ms = None
         if vk is not None:
@@ -201,8 +272,32 @@ def main():
                 flush=True)
         print(f"  ({name}: decomposition {t_dec[1]:.2f} s on 1 thread, {t_dec[2]:.2f} s on 2; load average "
               f"{os.getloadavg()[0]:.2f}; {mr})", flush=True)
+        if not a.no_rbf:
+            # Each deformer's frame beside the plain FFD (and the FFD's multiresolution
+            # frame) of the same mesh, threads and device, measured in this run.
+            ffd = {r[3]: (r[4], r[6]) for r in rows}
+            mt = mesh.n_faces / 1e6
+            for threads, (t_ffd, t_mr) in ffd.items():
+                rbf_rows.append((name, mesh.n_vertices, mesh.n_faces, "FFD multires", threads, "-", t_mr,
+                                 mt / (t_mr / 1e3), t_ffd))
+            for mode, threads, n_h, t in speed_rbf(mr, mesh, a.rbf_handles, a.repeats, vk):
+                if threads in ffd:
+                    rbf_rows.append((name, mesh.n_vertices, mesh.n_faces, mode, threads, n_h, t,
+                                     mt / (t / 1e3), ffd[threads][0]))
+            print(f"  ({name}: RBF rows done; load average {os.getloadavg()[0]:.2f})", flush=True)
         if name == "dragon":
             acc_meshes.append((name, mesh))
+    if rbf_rows:
+        print("\n| mesh | V | F | deformer | threads | constraints H | frame ms | Mtri/s | plain FFD ms | "
+              "frame / plain FFD |")
+        print("|---|---:|---:|---|---|---:|---:|---:|---:|---:|")
+        for r in rbf_rows:
+            print(f"| {r[0]} | {r[1]:,} | {r[2]:,} | {r[3]} | {r[4]} | {r[5]} | {r[6]:.1f} | {r[7]:.1f} | "
+                  f"{r[8]:.1f} | {r[6] / r[8]:.2f} |")
+        print(f"(load average after the RBF rows: {' '.join(f'{x:.2f}' for x in os.getloadavg())})", flush=True)
+    if a.no_accuracy:
+        print(f"\nload average at the end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+        return
     acc_meshes.insert(0, (f"bumpy ico{a.accuracy_size}", vpffd.shapes.bumpy_sphere(a.accuracy_size)))
     acc_meshes.insert(1, ("bumpy body", vpffd.shapes.bumpy_sphere(a.accuracy_size, stretch=(1, 1, 2.5))))
     print("\n| mesh | smoothing | edit | mean |d| / diag | extrapolated | max residual / diag | mean deg | "

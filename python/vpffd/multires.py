@@ -340,9 +340,9 @@ class MultiresDeformer:
     lattice : Lattice
         its box must contain the base mesh (``outside``) — a lattice around the
         fine mesh does, since fairing moves vertices inwards. Periodic axes work as
-        in ``Deformer`` on the CPU: foot points are wrapped into the box and the
-        seam's translation ("shift") or mirror ("twist") applies to the map and its
-        Jacobian there.
+        in ``Deformer``, on every backend: foot points are wrapped into the box and
+        the seam's translation ("shift") or mirror ("twist") applies to the map and
+        its Jacobian there.
     backend : {"auto", "openmp", "serial", "vulkan"}
         "vulkan": every part of a frame runs on the device: the volume correction
         (``Deformer(..., backend="vulkan")`` of the base or the fine mesh, see
@@ -358,9 +358,7 @@ class MultiresDeformer:
         buffers (no host round trip) and the reconstruction dispatch. The deformed
         base (``base_vertices``) is the base Deformer's device FFD (with
         ``volume="fine"`` run in the same submission on the corrected control
-        points). Periodic lattices raise BackendUnavailableError (the device
-        dispatch has no seams; "auto" stays on the CPU for them), as does a build
-        or machine without Vulkan.
+        points). A build or machine without Vulkan raises BackendUnavailableError.
         "auto" follows ``Deformer``'s rule on the fine mesh's size: a hardware GPU
         for meshes of ``vpffd.backends.AUTO_GPU_MIN_VERTICES`` vertices or more, or the
         device that ``device`` / VPFFD_VULKAN_DEVICE names; otherwise the CPU
@@ -386,15 +384,7 @@ class MultiresDeformer:
         if not isinstance(backend, str):
             raise TypeError(f"backend: expected a string, got {type(backend).__name__}")
         precision = _requested_precision(gpu_precision)
-        if lattice.periodic and backend == "vulkan":
-            raise BackendUnavailableError(
-                f"MultiresDeformer: backend 'vulkan': the lattice is periodic along {lattice.periodic!r}, and the "
-                "device's multiresolution dispatch has no seams; use backend='openmp' or 'serial' (the CPU "
-                "evaluates periodic lattices), or a Deformer on the fine mesh")
         resolved, threads_core, selector = _resolve_backend(backend, threads, device, multires.n_vertices)
-        if lattice.periodic and resolved == "vulkan":  # "auto" on a large mesh: the CPU has the seams
-            resolved, threads_core, selector = _resolve_backend("openmp" if _core.has_openmp() else "serial",
-                                                                threads)
         self._vk = None
         if resolved == "vulkan":
             try:

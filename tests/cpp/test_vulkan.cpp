@@ -785,12 +785,52 @@ TEST_P(VulkanP, PartsKeepTheirOwnVolumes) {
   }
 }
 
-TEST(Vulkan, MultiresRefusesPeriodicLattice) {
-  Scene s = sphere(2, 3, {6, 6, 6});
-  auto mr = std::make_shared<Multires>(decompose(s.V, s.F, 3.0));
-  Lattice L = s.L;
-  L.seam[0] = Seam::Shift;
-  EXPECT_THROW(vulkan::VulkanMultires(mr, L), BackendUnavailableError);
+// Periodic lattices, every seam, on a bumpy sphere across the box's x = max face (its
+// foot points wrapped on the host): the frame takes the distinct control points, and
+// the parts that can be compared bit for bit are (as MultiresAfterDeformerFrame): without
+// a correction, the reconstruction after a periodic Deformer's frame equals the
+// standalone one (the Deformer expands the distinct points to the same floats as this
+// frame's host); with one, the reconstruction follows the corrected control points up
+// to their rounding, which needs each tied copy to get its distinct point's offset. The
+// match with the CPU within derived bounds is tests/python/test_multires_vulkan_periodic.py.
+TEST_P(VulkanP, MultiresPeriodicLattices) {
+  const TriMesh m = vpffd::test::bumpy(3);
+  const RowMatrixX3d V = (0.3 * m.V).rowwise() + Eigen::RowVector3d(1.85, 0.0, 0.0);
+  auto mr = std::make_shared<Multires>(decompose(V, m.F, 3.0));
+  for (Seam seam : {Seam::Shift, Seam::Closed, Seam::Twist}) {
+    SCOPED_TRACE(int(seam));
+    const Lattice L = make_lattice(Vector3d(-1.0, -0.5, -0.4), Vector3d(2.0, 0.5, 0.4), {7, 5, 4}, {3, 3, 3},
+                                   {seam, Seam::None, Seam::None});
+    vulkan::VulkanMultires gpu(mr, L, "", GetParam());
+    vulkan::VulkanDeformer base(mr->base, m.F, L, OutsidePolicy::Error, "", GetParam());
+    const Ties& ties = gpu.cpu().ties();
+    ASSERT_LT(gpu.cpu().n_control_points(), L.n_control_points());
+    EXPECT_THROW(gpu.deform(rest_control_points(L)), InvalidInputError);  // the extended points: refused
+    RowMatrixX3d P = restrict_points(ties, rest_control_points(L));
+    for (Index c = 0; c < P.rows(); ++c) {
+      P(c, 1) += 0.05 * std::sin(2.0 * P(c, 0));
+      P(c, 2) *= 1.0 + 0.1 * std::cos(P(c, 0));
+    }
+    CorrectionOptions plain;
+    plain.preserve_volume = false;
+    const vulkan::MultiresDeviceFrame f0 = gpu.deform(base, P, plain);
+    const MultiresFrame g0 = gpu.deform(P);
+    EXPECT_TRUE(f0.frame.vertices == g0.vertices && f0.frame.normals == g0.normals);
+    EXPECT_TRUE(f0.base_vertices == base.deform(P, plain).vertices);
+
+    CorrectionOptions opt;
+    opt.axes = parse_axes("zy");
+    const vulkan::MultiresDeviceFrame fb = gpu.deform(base, P, opt);
+    const DeformResult rb = base.deform(P, opt);
+    EXPECT_TRUE(fb.correction.control_points == rb.control_points);
+    const MultiresFrame gb = gpu.deform(rb.control_points);
+    const double by_offsets = (fb.frame.vertices - g0.vertices).rowwise().norm().maxCoeff();
+    const double diag = (L.box_max - L.box_min).norm();
+    EXPECT_GT(by_offsets, 1e-5 * diag);
+    // The device rounds P, then the sum; the host the sum once: a few u = 6e-8 of the
+    // box, so 1e-3 of the offsets' effect is loose.
+    EXPECT_LT((fb.frame.vertices - gb.vertices).rowwise().norm().maxCoeff(), 1e-3 * by_offsets);
+  }
 }
 
 // Periodic lattices, every seam: a sphere across the box's x = max face (wrapped on

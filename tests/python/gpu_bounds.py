@@ -384,8 +384,18 @@ def multires_bounds(lat, frame_data, control_points, values, jacobians, offsets=
     J at the foot points (``MultiresFFD.foot_values_jacobians``). ``offsets``: the
     correction's offsets when the device added them to the control points (a frame after
     a Deformer's). The foot points must lie in the lattice box (the basis values are then
-    non-negative)."""
+    non-negative), after the wrap of a periodic lattice's axes.
+
+    A periodic lattice (the extended control points, _jacobian_errors; the host wraps the
+    foot points in double and rounds the local parameter once, as for any point): a twist
+    seam's mirror changes the signs of S_u's and S_v's components on the host, which
+    leaves every magnitude below unchanged; a shift seam's translation T (device units,
+    rounded once to float32: u |T|, |T| <= |S' - o| + R since the wrapped point's image lies
+    in its control points' hull) is added to the value in float32 (u |S' - o|): u (2 |S' - o|
+    + R) more on every vertex."""
     foot = np.asarray(frame_data["foot_points"], float)
+    if lat.periodic:
+        foot = np.asarray(lat._spec.wrap_points(foot)[0], float)
     assert np.all(foot >= lat.box_min) and np.all(foot <= lat.box_max), "a foot point outside the box"
     o = 0.5 * (lat.box_min + lat.box_max)
     dmax = 0.0 if offsets is None else float(np.abs(np.asarray(offsets, float)).max(initial=0.0)) * np.sqrt(3)
@@ -412,6 +422,8 @@ def multires_bounds(lat, frame_data, control_points, values, jacobians, offsets=
     d = np.abs(np.asarray(frame_data["displacements"], float))
     S1 = np.asarray(values, float)
     e_p = eS + d * e_N + 3 * U32 * d + U32 * (norm(S1 - o) + d) + 2.0 ** -40 * (norm(S1 - o) + d)
+    if any(v == "shift" for v in lat.seams.values()):
+        e_p = e_p + 1.01 * U32 * (2 * norm(S1 - o) + R)
     C = np.asarray(frame_data["normal_coefficients"], float)
 
     def tangent(k):

@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 import vpffd
-from vpffd import _core
 
 
 def _diag(X):
@@ -84,15 +83,12 @@ def test_periodic_base_map_is_the_deformers(long_body, seam):
     np.testing.assert_allclose(X, want, rtol=0, atol=1e-11 * diag)
 
 
-def test_periodic_volume_preserved_and_vulkan_refused(long_body):
+def test_periodic_volume_preserved(long_body):
     mesh, mr = long_body
     lat = vpffd.Lattice.around(mesh, shape=(6, 5, 5), periodic="x")
     P = vpffd.edits.squash(lat.control_points, 0.6, axis="z")
     r = vpffd.MultiresDeformer(mr, lat, backend="serial").deform(P, axes="xyz")
     assert r.base_volume_error < 1e-12
-    if _core.has_vulkan:
-        with pytest.raises(vpffd.BackendUnavailableError, match="periodic.*openmp"):
-            vpffd.MultiresDeformer(mr, lat, backend="vulkan")
 
 
 def test_to_trimesh_keeps_vertices_and_faces(long_body):

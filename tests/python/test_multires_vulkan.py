@@ -240,16 +240,6 @@ def test_vulkan_multires_bad_input(scene):
         vpffd.MultiresDeformer(mr, lat, backend="vulkan", device="no such device name")
 
 
-def test_vulkan_multires_refuses_periodic_lattice():
-    mesh = vpffd.shapes.bumpy_sphere(2)
-    mr = vpffd.Multires(mesh, smoothing=3)
-    lat = vpffd.Lattice.around(mesh, shape=(6, 6, 6), periodic="x")
-    with pytest.raises(vpffd.BackendUnavailableError, match="periodic"):
-        vpffd.MultiresDeformer(mr, lat, backend="vulkan", device=SEL)
-    with pytest.raises(vpffd.BackendUnavailableError, match="periodic"):
-        _core.VulkanMultires(mr._m, lat._spec, SEL, "auto")
-
-
 def test_vulkan_auto_follows_the_deformer_rule(monkeypatch):
     mesh = vpffd.shapes.bumpy_sphere(2)
     mr = vpffd.Multires(mesh, smoothing=3)

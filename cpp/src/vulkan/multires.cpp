@@ -8,6 +8,15 @@
 // are a tail of that frame's submission (detail::FrameTail): copies of the Deformer's
 // control points and offsets -> corrected.comp (their sum) -> [the base
 // Deformer's FFD of them] -> dispatch -> copies.
+//
+// Periodic lattices (lattice/periodic.h), as the VulkanDeformer: the device evaluates the
+// extended lattice (N control points; the host expands the user's NDIST distinct ones each
+// frame, a Deformer's frame holds them expanded already, and its offsets, per distinct
+// point, reach the tied copies through the tie map in corrected.comp). The foot points
+// are wrapped into the box by the host's embedding (MultiresFFD's, so both evaluate the
+// same spans); what the seams add there (foot_seams.h) is per vertex data: a shift seam's
+// translation in three more rows of the frame data, a twist seam's mirror of J folded
+// into S_u and S_v.
 
 #include "vpffd/backend/vulkan_multires.h"
 
@@ -36,16 +45,17 @@ struct VulkanMultires::Impl {
   VkDevice d = VK_NULL_HANDLE;
   Precision precision = Precision::Float64;
   bool ff = false;
-  Index nv = 0, N = 0;
+  Index nv = 0, N = 0, n_distinct = 0;  // N: the extended lattice's control points
   std::uint32_t groups = 1;
   Vector3d origin;
   double scale = 1.0;
   std::vector<std::int32_t> order;  // device vertex i is input vertex order[i]
 
-  enum Buf { bP, bTab, bSpan, bData, bX, bN, bSrcP, bSrcDelta, kNumBuf };
+  enum Buf { bP, bTab, bSpan, bData, bX, bN, bSrcP, bSrcDelta, bTies, kNumBuf };
   static_assert(bP == VPFFD_MR_B_P && bTab == VPFFD_MR_B_TAB && bSpan == VPFFD_MR_B_SPAN &&
                     bData == VPFFD_MR_B_DATA && bX == VPFFD_MR_B_X && bN == VPFFD_MR_B_N &&
-                    bSrcP == VPFFD_MR_B_SRC_P && bSrcDelta == VPFFD_MR_B_SRC_DELTA && kNumBuf == VPFFD_MR_B_COUNT,
+                    bSrcP == VPFFD_MR_B_SRC_P && bSrcDelta == VPFFD_MR_B_SRC_DELTA && bTies == VPFFD_MR_B_TIES &&
+                    kNumBuf == VPFFD_MR_B_COUNT,
                 "the bindings of shaders/multires_layout.h");
   Buffer buf[kNumBuf];
   Buffer up_P, rb_X, rb_N;
@@ -67,7 +77,7 @@ struct VulkanMultires::Impl {
   }
 
   void build(const std::string& selector, Precision wanted);
-  void create_pipeline(const std::array<std::int32_t, 9>& spec);
+  void create_pipeline(const std::array<std::int32_t, 11>& spec);
   void record_frame();
   void record_tail(VulkanDeformer::Impl& src, bool corrected, VulkanDeformer::Impl* base);
   void read_timings(FrameTimings& tm);
@@ -80,7 +90,7 @@ void VulkanMultires::Impl::submit_and_wait(VkCommandBuffer cb) {
   detail::submit_and_wait(*dev, fence.get(), pending, &cb, 1);
 }
 
-void VulkanMultires::Impl::create_pipeline(const std::array<std::int32_t, 9>& spec) {
+void VulkanMultires::Impl::create_pipeline(const std::array<std::int32_t, 11>& spec) {
   detail::create_compute_pipelines(d, buf, kNumBuf, 4, spec.data(), std::uint32_t(spec.size()),
                                    ff ? kMultiresShadersFF : kMultiresShaders64, kMultiresPipes, pl);
 }
@@ -132,7 +142,8 @@ void VulkanMultires::Impl::record_tail(VulkanDeformer::Impl& src, bool corrected
   VulkanDeformer::Impl::barrier(cb);
   VulkanDeformer::Impl::copy(cb, src.buf[VulkanDeformer::Impl::bP], buf[bSrcP], 12 * VkDeviceSize(N));
   if (corrected)
-    VulkanDeformer::Impl::copy(cb, src.buf[VulkanDeformer::Impl::bDelta], buf[bSrcDelta], 24 * VkDeviceSize(N));
+    VulkanDeformer::Impl::copy(cb, src.buf[VulkanDeformer::Impl::bDelta], buf[bSrcDelta],
+                               24 * VkDeviceSize(n_distinct));
   VulkanDeformer::Impl::barrier(cb);
   const std::int32_t push = corrected ? 1 : 0;
   vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
@@ -197,9 +208,14 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
   const Lattice& L = cpu->lattice();
   const BasisTables& T = cpu->tables();
   const Embedding& E = cpu->embedding();
+  const FootSeams& seams = cpu->seams();
+  const Ties& ties = cpu->ties();
+  const bool shifted = seams.any_shift();
+  const int rows = shifted ? MR_ROWS_SHIFTED : MR_ROWS;
   nv = m.n_vertices();
   N = L.n_control_points();
-  if (nv * Index(MR_ROWS) >= (Index(1) << 31))
+  n_distinct = cpu->n_control_points();
+  if (nv * Index(rows) >= (Index(1) << 31))
     throw InvalidInputError("VulkanMultires: the mesh is too large for 32-bit device indices");
   origin = 0.5 * (L.box_min + L.box_max);
   {
@@ -215,15 +231,20 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
   std::stable_sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) { return cell[a] < cell[b]; });
 
   std::vector<std::int32_t> span(3 * nv);
-  std::vector<float> data(size_t(MR_ROWS) * nv);
+  std::vector<float> data(size_t(rows) * nv);
+  const int twist = seams.twisted_axis();
   auto put = [&](int r, Index i, double x) { data[size_t(r) * nv + i] = static_cast<float>(x); };
   for (Index i = 0; i < nv; ++i) {
     const Index v = order[i];
+    const bool mirrored = seams.mirrored(v);
+    const Vector3d shift = seams.shift(v);
     for (int a = 0; a < 3; ++a) {
       span[a * nv + i] = E.span[a][v] - T.poly[a].degree;
       put(MR_TAU + a, i, E.tau[a][v]);
-      put(MR_SU + a, i, m.su[a][v] / scale);
-      put(MR_SV + a, i, m.sv[a][v] / scale);
+      const double flip = mirrored && a != twist ? -1.0 : 1.0;
+      put(MR_SU + a, i, flip * m.su[a][v] / scale);
+      put(MR_SV + a, i, flip * m.sv[a][v] / scale);
+      if (shifted) put(MR_SHIFT + a, i, shift[a] / scale);
     }
     put(MR_D, i, m.d[v] / scale);
     // a, b multiply tangents (now in scale units), g the unit normal: a, b times scale.
@@ -256,7 +277,10 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
   mk(bX, 12 * nv, "multiresolution vertices");
   mk(bN, 12 * nv, "multiresolution normals");
   mk(bSrcP, 12 * N, "control points of a Deformer's frame");
-  mk(bSrcDelta, 24 * N, "offsets of a Deformer's frame");
+  mk(bSrcDelta, 24 * n_distinct, "offsets of a Deformer's frame");
+  // The tie map only for a periodic lattice (else a placeholder: bindings need a buffer).
+  const std::vector<std::int32_t> tie_map = ties.identity ? std::vector<std::int32_t>{} : ties.source;
+  mk(bTies, std::max<size_t>(16, 4 * tie_map.size()), "periodic ties");
   up_P = Buffer(*dev, 12 * N, Buffer::Upload, "control points (upload)");
   rb_X = Buffer(*dev, 12 * nv, Buffer::Readback, "multiresolution vertices (read-back)");
   rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "multiresolution normals (read-back)");
@@ -281,6 +305,7 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
     upload(bTab, tab_dev.data(), 8 * tab_dev.size());
     upload(bSpan, span.data(), 4 * span.size());
     upload(bData, data.data(), 4 * data.size());
+    if (!tie_map.empty()) upload(bTies, tie_map.data(), 4 * tie_map.size());
     detail::check(vkEndCommandBuffer(cb), "vkEndCommandBuffer");
     submit_and_wait(cb);
     vkFreeCommandBuffers(d, cmd_pool.get(), 1, &cb);
@@ -288,7 +313,8 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
 
   const auto dims = L.dims();
   create_pipeline({T.order[0], T.order[1], T.order[2], dims[0], dims[1], dims[2], static_cast<std::int32_t>(nv),
-                   poly_off[1], poly_off[2]});
+                   poly_off[1], poly_off[2], ties.identity ? 0 : static_cast<std::int32_t>(n_distinct),
+                   shifted ? 1 : 0});
   groups = static_cast<std::uint32_t>(
       std::clamp<Index>((nv + VPFFD_MR_GROUP - 1) / VPFFD_MR_GROUP, 1, dev->limits.maxComputeWorkGroupCount[0]));
   groups_cp = static_cast<std::uint32_t>(
@@ -302,10 +328,6 @@ void VulkanMultires::Impl::build(const std::string& selector, Precision wanted) 
 VulkanMultires::VulkanMultires(std::shared_ptr<const Multires> m, Lattice L, const std::string& device,
                                Precision precision)
     : impl_(std::make_unique<Impl>()) {
-  if (L.any_periodic())
-    throw BackendUnavailableError(
-        "VulkanMultires: periodic lattices are not supported: the multiresolution FFD map has no periodic ties "
-        "on any backend; use a VulkanDeformer on the fine mesh");
   // MultiresFFD validates the decomposition and the lattice and embeds the foot points.
   impl_->cpu = std::make_unique<MultiresFFD>(std::move(m), std::move(L));
   impl_->build(device, precision);
@@ -342,6 +364,10 @@ void VulkanMultires::deform(const Eigen::Ref<const RowMatrixX3d>& P, double* ver
   const auto t_start = std::chrono::steady_clock::now();
   Impl& m = *impl_;
   m.cpu->check_control_points(P);
+  // The extended lattice's points in double, each rounded once below (a periodic
+  // lattice's tied copies, with a shift seam's constant; P itself otherwise).
+  const RowMatrixX3d expanded = m.cpu->ties().identity ? RowMatrixX3d() : expand_points(m.cpu->ties(), P);
+  const Eigen::Ref<const RowMatrixX3d> Pe = m.cpu->ties().identity ? P : Eigen::Ref<const RowMatrixX3d>(expanded);
   std::lock_guard<std::mutex> lock(m.mutex);
   float* p = static_cast<float*>(m.up_P.mapped());
   // Device coordinates up to 2^100 box half-diagonals: the shader's products and
@@ -350,10 +376,10 @@ void VulkanMultires::deform(const Eigen::Ref<const RowMatrixX3d>& P, double* ver
   constexpr double kMaxDevice = 0x1p100;
   for (Index c = 0; c < m.N; ++c)
     for (int a = 0; a < 3; ++a) {
-      const double y = (P(c, a) - m.origin[a]) / m.scale;
+      const double y = (Pe(c, a) - m.origin[a]) / m.scale;
       if (!(std::abs(y) <= kMaxDevice))
         throw InvalidInputError(vpffd::detail::concat(
-            "VulkanMultires: control point ", c, " is beyond float32's range relative to the lattice (", P(c, a),
+            "VulkanMultires: control point ", c, " is beyond float32's range relative to the lattice (", Pe(c, a),
             " along axis ", a, ", more than 2^100 box half-diagonals from its centre)"));
       p[3 * c + a] = static_cast<float>(y);
     }
@@ -368,7 +394,8 @@ void VulkanMultires::deform(const Eigen::Ref<const RowMatrixX3d>& P, double* ver
 namespace {
 
 bool same_lattice(const Lattice& a, const Lattice& b) {
-  return a.degree == b.degree && a.knots == b.knots && a.box_min == b.box_min && a.box_max == b.box_max;
+  return a.degree == b.degree && a.knots == b.knots && a.box_min == b.box_min && a.box_max == b.box_max &&
+         a.seam == b.seam;
 }
 
 }  // namespace

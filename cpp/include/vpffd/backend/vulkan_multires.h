@@ -25,6 +25,12 @@
 /// normal's direction error) and below 0.01 degree for the normals of a moderate edit;
 /// lavapipe's errors are about 5e-8 of the diagonal and 2e-5 degree.
 ///
+/// Periodic lattices: as MultiresFFD, the control points given are the distinct ones
+/// (expanded to the extended lattice, each rounded once to float32), the foot points are
+/// wrapped into the box on the host, and the seams' translations and mirrors are per
+/// vertex data (a shift seam adds 12 bytes per vertex: its translation, added to D in
+/// float32).
+///
 /// Threads: deform() and last_timings() may be called from several threads; frames run
 /// one at a time. The device is shared with every VulkanDeformer on it.
 
@@ -56,15 +62,16 @@ class VulkanMultires {
   /// @param[in] device  as VulkanDeformer: "" (first suitable), an index, or part of a name
   /// @param[in] precision  how the basis is evaluated (Float64 needs shaderFloat64)
   /// @throws InvalidInputError for a bad lattice (as MultiresFFD) or a mesh too large
-  ///         for 32-bit device indices, BackendUnavailableError for a periodic lattice
-  ///         or when no Vulkan device is found, DeviceError when a Vulkan call fails
+  ///         for 32-bit device indices, BackendUnavailableError when no Vulkan device
+  ///         is found, DeviceError when a Vulkan call fails
   VulkanMultires(std::shared_ptr<const Multires> m, Lattice L, const std::string& device = "",
                  Precision precision = Precision::Auto);
   ~VulkanMultires();
   VulkanMultires(const VulkanMultires&) = delete;
   VulkanMultires& operator=(const VulkanMultires&) = delete;
 
-  /// One frame with control points P (N x 3, world units): the fine vertices and
+  /// One frame with control points P (N x 3, world units; a periodic lattice's distinct
+  /// ones, cpu().n_control_points()): the fine vertices and
   /// their approximate unit normals (zero rows where the deformed tangents are
   /// parallel), input vertex order.
   /// @throws InvalidInputError for a wrong row count, NaN or Inf, or a control point
@@ -113,7 +120,7 @@ class VulkanMultires {
   double scale() const;
 
   /// Device bytes per vertex: 3 span indices (12) and 16 floats of frame data (64),
-  /// uploaded once; the outputs add 24.
+  /// uploaded once (a periodic lattice with a shift seam: 12 more); the outputs add 24.
   static constexpr int frame_bytes_per_vertex = 3 * 4 + 16 * 4;
 
   /// For a renderer on the same VkDevice: raw VkBuffer handles of the positions

@@ -136,6 +136,10 @@ class MultiresFFD {
   /// and the lattice's per-span power forms: what a device evaluates per frame.
   const Embedding& embedding() const { return embedding_; }
   const BasisTables& tables() const { return tables_; }
+  /// A periodic lattice's tie map (distinct -> extended control points) and what its
+  /// seams add at each foot point: with embedding(), all a device needs for the seams.
+  const Ties& ties() const { return ties_; }
+  const FootSeams& seams() const { return seams_; }
   /// Control points a frame takes: the distinct ones of a periodic lattice.
   Index n_control_points() const { return ties_.n_distinct; }
   /// Bytes a frame reads per vertex: the decomposition's frame data without the

@@ -47,6 +47,16 @@ class FootSeams {
   /// Whether any foot point needs a change (false for a lattice without periodic axes).
   bool any() const { return shift_.rows() > 0 || !mirrored_.empty(); }
 
+  /// Whether some foot point gains a translation (then shift() has #V rows).
+  bool any_shift() const { return shift_.rows() > 0; }
+  /// The translation a shift seam adds to the value at foot point i (world units).
+  Vector3d shift(Index i) const { return shift_.rows() > 0 ? Vector3d(shift_.row(i).transpose()) : Vector3d::Zero(); }
+  /// Whether a twist seam mirrored foot point i (then the columns of J other than
+  /// twisted_axis() change sign; a device folds that into S_u and S_v: J M t = J (M t)).
+  bool mirrored(Index i) const { return !mirrored_.empty() && mirrored_[static_cast<size_t>(i)]; }
+  /// The twist axis, or -1 without a twist seam.
+  int twisted_axis() const { return twist_; }
+
   /// The map at foot point i from the spline's value s and Jacobian J at its wrapped twin.
   VPFFD_ALWAYS_INLINE void apply(Index i, Vector3d& s, Matrix3d& J) const {
     if (shift_.rows() > 0) s += shift_.row(i).transpose();

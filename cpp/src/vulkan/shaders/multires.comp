@@ -25,6 +25,10 @@ layout(constant_id = 5) const int NW = 4;
 layout(constant_id = 6) const int NVERT = 1;
 layout(constant_id = 7) const int POLY_V = 0;  // start of axis v's span table in `tab`
 layout(constant_id = 8) const int POLY_W = 0;
+// A periodic lattice: the distinct control points (0: none; corrected.comp's tie map)
+// and whether the frame data has the shift seam's rows (MR_SHIFT).
+layout(constant_id = 9) const int NDIST = 0;
+layout(constant_id = 10) const int SHIFTED = 0;
 
 layout(local_size_x = VPFFD_MR_GROUP) in;
 
@@ -83,6 +87,9 @@ void main() {
       c1 += bu[i] * a10;
       c2 += bu[i] * a01;
     }
+    // The image of the foot point as given: a shift seam's translation (float32, added
+    // once), zero rows for the points no seam moved.
+    if (SHIFTED != 0) s += rows3(MR_SHIFT, v);
     const vec3 su = rows3(MR_SU, v), sv = rows3(MR_SV, v);
     const vec3 su1 = su.x * c0 + su.y * c1 + su.z * c2;
     const vec3 sv1 = sv.x * c0 + sv.y * c1 + sv.z * c2;
