@@ -711,12 +711,14 @@ class Deformer:
         queries, ``gpu_ffd_ms``, ``gpu_steps_ms`` per axis, ``host_total_ms`` the core's
         call end to end; ``gpu_move_ms``: the device embedding, cell sort and tiles of a
         ``set_rest_vertices`` that ran first in this frame's submission, not part of
-        ``gpu_total_ms``, 0.0 when no move waited for the frame).
+        ``gpu_total_ms``, 0.0 when no move waited for the frame; ``gpu_readback_ms``: the
+        read back's device work after the frame, the vertices put in the caller's order
+        and copied to host memory, 0.0 without vertices).
 
         The host's stages: ``host_prepare_ms`` (checks, plan, staging the control points
         and frame data in mapped memory), ``host_submit_wait_ms`` (submission until the
         queue is idle: the device's work and the driver's around it),
-        ``host_unpack_ms`` (the read back into the caller's vertex order in float64),
+        ``host_unpack_ms`` (the read back into the caller's array, in float64),
         and ``python_total_ms``, the whole ``deform`` call (the Python checks, the
         result's arrays and the fold check on top of ``host_total_ms``). With frames on
         several threads these are of the last frame to finish."""

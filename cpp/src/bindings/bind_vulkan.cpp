@@ -38,6 +38,7 @@ py::dict timings_to_python(const vulkan::FrameTimings& t) {
   o["gpu_steps_ms"] = t.gpu_steps;
   o["gpu_final_ms"] = t.gpu_final;
   o["gpu_move_ms"] = t.gpu_move;
+  o["gpu_readback_ms"] = t.gpu_readback;
   o["host_total_ms"] = t.host_total;
   o["host_prepare_ms"] = t.host_prepare;
   o["host_submit_wait_ms"] = t.host_submit_wait;

@@ -192,6 +192,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     fr[FR_TARGET] = target / s3;
     fr[FR_MAX_INVW] = inv_weight.maxCoeff();
     fr[FR_HI] = m.cons.hi;
+    m.put_units(fr.data());
     for (int a = 0; a < 3; ++a) {
       const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, expand_column(cpu.ties(), P.col(a), a));
       for (size_t i = 0; i < nc; ++i) fr[FR_RHS + a * nc + i] = rhs[i] / s;
@@ -250,6 +251,13 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
                                           sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
                     "vkGetQueryPoolResults");
       tm.gpu_move = double(tm_move[1] - tm_move[0]) * p;
+    }
+    if (read_vertices) {
+      std::uint64_t tr[2] = {};
+      detail::check(vkGetQueryPoolResults(m.d, m.queries.get(), kReadbackQuery, 2, sizeof(tr), tr,
+                                          sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+                    "vkGetQueryPoolResults");
+      tm.gpu_readback = double(tr[1] - tr[0]) * p;
     }
   }
 

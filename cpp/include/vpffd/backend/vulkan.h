@@ -112,6 +112,9 @@ struct FrameTimings {
   double gpu_move = 0;            ///< a move's device embedding that ran first in this frame's submission
                                   ///< (embedding, cell sort, tiles; set_rest_vertices), not in gpu_total;
                                   ///< 0 when no move waited for the frame
+  double gpu_readback = 0;        ///< the read back's device work (the vertices put in the caller's
+                                  ///< order, and their copy to host memory), after gpu_total; 0
+                                  ///< without vertices read back
   double host_total = 0;          ///< deform() call, end to end (upload, submit, wait, read back)
   /// The host's stages of host_total: the options' checks, the plan and the staging of
   /// the control points and frame data in mapped memory (and recording, when the
