@@ -104,3 +104,35 @@ def test_bad_setting(monkeypatch):
     mesh = shapes.icosphere(1)
     with pytest.raises(vpffd.InvalidInputError, match="VPFFD_VULKAN_READBACK: expected 'device'"):
         vpffd.Deformer(mesh, vpffd.Lattice.around(mesh, shape=4), backend="vulkan", device=SEL)
+
+
+def test_results_are_never_overwritten(precision):
+    """Without out= the vertices are the read-back memory itself: a held result (or a
+    view of it) keeps its values through later frames and after the deformer is gone;
+    memory nobody holds any more is used again."""
+    import gc
+    mesh = shapes.icosphere(3)
+    lat = vpffd.Lattice.around(mesh, shape=(5, 5, 5), degree=3)
+    d = vpffd.Deformer(mesh, lat, backend="vulkan", device=SEL, gpu_precision=precision)
+    Ps = [edits.squash(lat.control_points, f) for f in (0.7, 0.8, 0.9, 1.1, 1.2, 0.75)]
+    ref = [d.deform(P).vertices.copy() for P in Ps]
+    held = [d.deform(P).vertices for P in Ps[:4]]  # more than the deformer keeps: the last copies
+    view = d.deform(Ps[4]).vertices[1::2]
+    for _ in range(3):
+        d.deform(Ps[5])
+    for a, b in zip(held, ref):
+        same_bits(a, b)
+    same_bits(view, ref[4][1::2])
+    assert len({a.__array_interface__["data"][0] for a in held}) == 4
+    if precision == "float64":
+        # A result let go of: its memory serves a later frame.
+        addr = held[0].__array_interface__["data"][0]
+        del held[0]
+        gc.collect()
+        again = d.deform(Ps[5]).vertices
+        assert again.__array_interface__["data"][0] == addr
+        same_bits(again, ref[5])
+    del d
+    gc.collect()
+    same_bits(view, ref[4][1::2])  # the memory outlives the deformer
+    same_bits(held[-1], ref[3])

@@ -215,6 +215,24 @@ struct VulkanDeformer::Impl {
   // Copies the device vertices to rb_X; recorded once, submitted after a frame in the
   // same vkQueueSubmit (no second wait per frame) or alone by vertices().
   VkCommandBuffer readback_cb = VK_NULL_HANDLE;
+  // The memory of frames' results handed out as shared pointers (deform with a shared
+  // pointer): placed float64 vertices are read back straight into `rb`, the result
+  // itself (no copy); otherwise (float-float, VPFFD_VULKAN_READBACK=host) they are
+  // unpacked from rb_X into `host`. One is reused once nobody else holds it, so frames
+  // do not fault fresh pages in. The device outlives every buffer (each holds it), so a
+  // result may outlive the deformer.
+  struct HostFrame {
+    std::shared_ptr<detail::Device> dev;  // first: destroyed last
+    Buffer rb;
+    RowMatrixX3d host;
+    const double* data() const { return rb.handle() ? static_cast<const double*>(rb.mapped()) : host.data(); }
+  };
+  struct SharedReadback {
+    std::shared_ptr<HostFrame> frame;
+    VkCommandBuffer cb = VK_NULL_HANDLE;  // its readback (recorded again after forget_recordings)
+  };
+  std::vector<SharedReadback> shared_rb;
+  static constexpr size_t kMaxSharedReadbacks = 3;
   Owned<VkFence> fence;
   Owned<VkQueryPool> queries;
 
@@ -329,6 +347,10 @@ struct VulkanDeformer::Impl {
       if (*cb) vkFreeCommandBuffers(d, cmd_pool.get(), 1, cb);
       *cb = VK_NULL_HANDLE;  // recorded again when a move needs it
     }
+    for (SharedReadback& s : shared_rb) {
+      if (s.cb) vkFreeCommandBuffers(d, cmd_pool.get(), 1, &s.cb);
+      s.cb = VK_NULL_HANDLE;
+    }
   }
 
   // Device buffer i (and its upload buffer, when given) hold at least `bytes`.
@@ -398,27 +420,58 @@ struct VulkanDeformer::Impl {
   // rebinding (forget_recordings).
   VkCommandBuffer readback() {
     if (readback_cb) return readback_cb;
-    const VkDeviceSize bytes = place_on_device ? 3 * placed_real() * nv : 12 * nv;
+    const VkDeviceSize bytes = readback_bytes();
     if (!rb_X.handle() || rb_X.size() < bytes) rb_X = Buffer(*dev, bytes, Buffer::Readback, "vertices (read-back)");
-    readback_cb = detail::allocate_command_buffer(d, cmd_pool.get());
-    begin(readback_cb, false);
-    if (dev->timestamps) {
-      vkCmdResetQueryPool(readback_cb, queries.get(), kReadbackQuery, 2);
-      vkCmdWriteTimestamp(readback_cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries.get(), kReadbackQuery);
-    }
-    barrier(readback_cb);
-    if (place_on_device) {
-      vkCmdBindDescriptorSets(readback_cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
-      dispatch(readback_cb, kPlace, g_vert, Push{});
-      copy(readback_cb, buf[bPlaced], rb_X, bytes);
-    } else {
-      copy(readback_cb, buf[bX], rb_X, bytes);
-    }
-    host_barrier(readback_cb);
-    timestamp(readback_cb, kReadbackQuery + 1);
-    detail::check(vkEndCommandBuffer(readback_cb), "vkEndCommandBuffer");
+    readback_cb = record_readback(rb_X);
     return readback_cb;
   }
+  VkDeviceSize readback_bytes() const { return place_on_device ? 3 * placed_real() * nv : 12 * nv; }
+  VkCommandBuffer record_readback(const Buffer& dst) {
+    const VkCommandBuffer cb = detail::allocate_command_buffer(d, cmd_pool.get());
+    begin(cb, false);
+    if (dev->timestamps) {
+      vkCmdResetQueryPool(cb, queries.get(), kReadbackQuery, 2);
+      vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries.get(), kReadbackQuery);
+    }
+    barrier(cb);
+    if (place_on_device) {
+      vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
+      dispatch(cb, kPlace, g_vert, Push{});
+      copy(cb, buf[bPlaced], dst, readback_bytes());
+    } else {
+      copy(cb, buf[bX], dst, readback_bytes());
+    }
+    host_barrier(cb);
+    timestamp(cb, kReadbackQuery + 1);
+    detail::check(vkEndCommandBuffer(cb), "vkEndCommandBuffer");
+    return cb;
+  }
+  // A shared result nobody else holds (made when fewer than kMaxSharedReadbacks
+  // exist), or null: the frame then copies into new memory.
+  SharedReadback* free_shared_readback() {
+    SharedReadback* s = nullptr;
+    for (SharedReadback& x : shared_rb)
+      if (x.frame.use_count() == 1) {  // only here: no result holds it (a count only we raise)
+        s = &x;
+        break;
+      }
+    if (!s && shared_rb.size() < kMaxSharedReadbacks) {
+      auto f = std::make_shared<HostFrame>();
+      f->dev = dev;
+      if (direct_readback())
+        f->rb = Buffer(*dev, readback_bytes(), Buffer::Readback, "vertices (read-back, shared)");
+      else
+        f->host.resize(nv, 3);
+      shared_rb.push_back({std::move(f), VK_NULL_HANDLE});
+      s = &shared_rb.back();
+    }
+    if (s && direct_readback() && !s->cb) s->cb = record_readback(s->frame->rb);
+    return s;
+  }
+  // Whether read-back memory holds the caller's float64 vertices as they are.
+  bool direct_readback() const { return place_on_device && !ff; }
+  // The read back of a frame whose vertices go to `s` (or, null, to rb_X).
+  VkCommandBuffer readback_into(SharedReadback* s) { return s && s->cb ? s->cb : readback(); }
 
   // #V x 3 device vertices in the input order (runs readback() alone).
   RowMatrixX3d read_vertices() {
@@ -498,7 +551,7 @@ struct VulkanDeformer::Impl {
   // computes normals).
   DeformResult run_frame(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt, bool read_vertices,
                          RowMatrixX3d* normals, const detail::FrameTail* tail, double* out_vertices = nullptr,
-                         double* out_normals = nullptr);
+                         double* out_normals = nullptr, std::shared_ptr<const double>* shared_vertices = nullptr);
 
   // Into `cb` (a caller's, begun; frame_mutex held): the plain FFD of the control points
   // in buf[bP] and the copy of the vertices to rb_X as readback() leaves them (it must

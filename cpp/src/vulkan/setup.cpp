@@ -188,7 +188,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   mk(bTileVol, 8 * n_tiles, "tile volumes");
   mk(bScan, 4 * scan_size, "cell sort counts");
   mk(bRest, 8 * (3 * nv + em.size()), "rest positions");
-  mk(bSlotVertex, 4 * size_t(nv), "slot vertices");
+  mk(bSlotVertex, 8 * size_t(nv), "slot vertices");
   mk(bSort, 4 * (4 * nv + 2 * n_keys), "cell sort");
   up_rest = B(*dev, 24 * nv, B::Upload, "rest positions (upload)");
   up_offsets = B(*dev, 24 * size_t(K), B::Upload, "rest offsets (upload)");
@@ -262,7 +262,13 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   put(bNrmTab, nrm_tab_dev.data(), 8 * nrm_tab_dev.size());
   put(bTies, tie_map.data(), 4 * tie_map.size());
   put(bParts, part_map.data(), 4 * part_map.size());
-  put(bSlotVertex, order.data(), 4 * size_t(nv));
+  {
+    // Each slot's caller vertex, then each caller vertex's slot (place.comp's gather).
+    std::vector<std::int32_t> both(order.begin(), order.end());
+    both.resize(2 * size_t(nv));
+    for (Index i = 0; i < nv; ++i) both[nv + order[i]] = static_cast<std::int32_t>(i);
+    put(bSlotVertex, both.data(), 4 * both.size());
+  }
   {
     // place.comp's units before any frame (vertices() reads back the rest positions).
     std::vector<double> fr(FR_RHS, 0.0), fr_dev(FR_RHS);

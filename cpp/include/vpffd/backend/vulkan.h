@@ -171,6 +171,16 @@ class VulkanDeformer {
   /// is not null, the normals into it. The result's `vertices` is empty.
   DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt, double* vertices,
                       double* normals);
+  /// deform() whose vertices are not copied: *vertices points at the #V x 3 row-major
+  /// float64 vertices (input order) in the host memory the device read them back into.
+  /// The lifetime rule: they stay valid and unchanged while *vertices (or a copy of it)
+  /// is held, also after the deformer is gone; the deformer writes that memory again
+  /// only once nobody holds it. It keeps up to three such buffers; while all are held
+  /// a frame copies into new memory instead. In float-float precision (whose shaders
+  /// read back float32) the vertices are widened into such memory, not read into it.
+  /// `normals` as in the overload above. The result's `vertices` is empty.
+  DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
+                      std::shared_ptr<const double>* vertices, double* normals = nullptr);
 
   /// #V x 3 vertices of the last frame that succeeded, in the input order (the rest
   /// mesh before any frame, and after set_rest_vertices until the next frame).

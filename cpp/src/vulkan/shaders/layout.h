@@ -37,7 +37,8 @@
 #define VPFFD_B_TIES 26       // int: periodic tie map (common.glsl TIE_*)
 #define VPFFD_B_SEAM 27       // vec4 per vertex slot: shift seam translation, twist seam mirror flag
 #define VPFFD_B_PARTS 28      // int, with parts: each part's faces [PT_FACE_START + k, + k + 1), each slot's part
-#define VPFFD_B_SLOT_VERTEX 29  // int, V: the caller's vertex of each slot (where its rest position is in rest[])
+#define VPFFD_B_SLOT_VERTEX 29  // int, 2V: the caller's vertex of each slot (where its rest position is in
+                               // rest[]), then the slot of each caller vertex (place.comp)
 #define VPFFD_B_PLACED 30     // place.comp's output in the caller's vertex order: 3V vertices, then 3V
                              // normals (double in the float64 build, float in the float-float one)
 #define VPFFD_B_COUNT 31

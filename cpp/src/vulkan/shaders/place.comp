@@ -1,10 +1,11 @@
 #version 450
 // The frame's vertices (pc.slot 0) or normals (pc.slot 1) in the caller's vertex order,
-// ready for the host to take as they are: device slot v is the caller's vertex
-// slot_vertex[v], so each invocation writes one vertex's three values where the caller
-// wants them (a scatter of whole vertices: every output written once, by one
-// invocation, so the result does not depend on scheduling). The host then copies
-// memory in order instead of reordering it on one thread's worth of random writes.
+// ready for the host to take as they are: caller vertex j is device slot
+// slot_vertex[NVERT + j], so each invocation gathers one vertex's three values and
+// writes them in order (every output written once, by one invocation, so the result
+// does not depend on scheduling; a gather, not a scatter: a CPU driver such as
+// lavapipe vectorises gathers and writes in order, where scattered stores run one lane
+// at a time). The host then copies memory in order instead of reordering it.
 //
 // float64 build: world coordinates x * scale + origin in double, the very arithmetic of
 // the host's conversion (VulkanDeformer::Impl::unpack): the float32 value widened
@@ -56,8 +57,9 @@ void main() {
   const double s = normals ? 1.0LF : frame[FR_SCALE];
   const dvec3 o = normals ? dvec3(0.0LF) : dvec3(frame[FR_ORIGIN], frame[FR_ORIGIN + 1], frame[FR_ORIGIN + 2]);
 #endif
-  for (uint v = gl_GlobalInvocationID.x; v < uint(NVERT); v += stride) {
-    const int dst = region + 3 * slot_vertex[v];
+  for (uint j = gl_GlobalInvocationID.x; j < uint(NVERT); j += stride) {
+    const int v = slot_vertex[NVERT + j];
+    const int dst = region + 3 * int(j);
     for (int a = 0; a < 3; ++a) {
       const float x = normals ? nrm[3 * v + a] : X[3 * v + a];
 #ifdef VPFFD_FLOAT_FLOAT
