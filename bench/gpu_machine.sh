@@ -48,7 +48,9 @@ for what in "${@:-table}"; do
              tests/python/test_auto_backend.py 2>&1 | tee $OUT/gpu_tests.log | tail -5 ;;
     table) python3 bench/python/bench_gpu.py --out $OUT ;;
     table-ff) python3 bench/python/bench_gpu.py --precision float-float --out $OUT ;;
-    scaling) python3 bench/python/bench_gpu.py --scaling --max-subdiv 9 --out $OUT ;;
+    # With the A/B of the read back: the vertices in the caller's order made on the device
+    # against the device's order reordered on the host (VPFFD_VULKAN_READBACK=host).
+    scaling) python3 bench/python/bench_gpu.py --scaling --max-subdiv 9 --readback-ab --out $OUT ;;
     motion) python3 bench/python/bench_motion.py --md "$OUT/motion_$VPFFD_BENCH_MACHINE.md" ;;
     *) echo "gpu_machine.sh: unknown step '$what' (tests, table, table-ff, scaling, motion)" >&2; exit 2 ;;
   esac

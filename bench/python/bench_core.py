@@ -7,6 +7,8 @@ Prints a markdown table (medians of --repeats runs, one process, one run), then
 where an xyz frame's time goes (FFD, coefficient passes, solves, gathers, volume,
 reordering: the frame's own per-pass clocks, medians) with the load average, what
 the options normals=True, weights="auto" and on_fold="warn" add to a frame, and
+each frame time against its memory floor (the caller's float64 vertices written once at
+this run's copy bandwidth, _floor.py), and
 writes bench/results/<machine>/cpu_<machine>.json (machine: $VPFFD_BENCH_MACHINE, else
 the host name). For the side-by-side comparison with
 Blender's Lattice modifier see bench_peers.py. The meshes of ../shared/data/meshes are
@@ -17,7 +19,9 @@ import os
 import platform
 from pathlib import Path
 
-from vpffd.cli.benchmark import run_benchmark
+from vpffd.cli.benchmark import load_average, run_benchmark
+
+import _floor  # bench/python: the memory floor of a frame
 
 
 def main():
@@ -30,7 +34,23 @@ def main():
                                          f"cpu_{machine}.json"))
     a = ap.parse_args()
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)  # a new machine's folder
-    run_benchmark(include_shared=not a.no_shared, repeats=a.repeats, with_csr=not a.no_csr, out=a.out)
+    bandwidth = _floor.copy_bandwidth()
+    rows = run_benchmark(include_shared=not a.no_shared, repeats=a.repeats, with_csr=not a.no_csr, out=a.out)
+    print_floors(rows, bandwidth)
+
+
+def print_floors(rows, bandwidth):
+    """Each frame time of the table beside its ratio to the frame's memory floor (_floor.py)."""
+    print(f"\nFrame times against the memory floor (ms, and time / floor; load average {load_average()})")
+    print("| mesh | backend | threads | method | floor ms | FFD ms | FFD / floor | 1 axis ms | 1 axis / floor | "
+          "xyz frame ms | xyz / floor |")
+    print("|" + "---|" * 11)
+    for r in rows:
+        f = _floor.floor_ms(r["vertices"], bandwidth)
+        print(f"| {r['mesh']} | {r['backend']} | {r['threads']} | {r['method']} | {f:.3f} | "
+              f"{r['ffd_ms']:.2f} | {r['ffd_ms'] / f:.1f} | {r['one_axis_ms']:.2f} | {r['one_axis_ms'] / f:.1f} | "
+              f"{r['xyz_ms']:.2f} | {r['xyz_ms'] / f:.1f} |")
+    print(_floor.note(bandwidth))
 
 
 if __name__ == "__main__":

@@ -57,6 +57,9 @@ from vpffd._files import open_replacing, write_text  # checked writes: a failure
 from vpffd.cli.benchmark import SHARED_MESHES, cpu_model, frame_edit as edit, load_average as load, median_ms, run_for
 from vpffd.normals import angles_deg, deformed_normals
 
+import _floor  # bench/python: the memory floor of a frame
+from _floor import copy_bandwidth, floor_ms
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -103,13 +106,17 @@ def meshes(max_vertices):
 def stage_medians(timings) -> dict:
     """Medians of a frame's host stages (Deformer.last_timings): preparing and staging,
     submission until the queue is idle, the read back into the caller's order, and the
-    Python wrapper around the core's call."""
+    Python wrapper around the core's call; the device's read back (the vertices put in
+    the caller's order and copied to host memory); and what is left of the Python call
+    without the device's work (the frame's and the read back's)."""
     med = statistics.median
     return dict(stage_prepare_ms=med(t["host_prepare_ms"] for t in timings),
                 stage_submit_wait_ms=med(t["host_submit_wait_ms"] for t in timings),
                 stage_unpack_ms=med(t["host_unpack_ms"] for t in timings),
                 stage_python_ms=med(t["python_total_ms"] - t["host_total_ms"] for t in timings),
-                host_minus_device_ms=med(t["python_total_ms"] - t["gpu_total_ms"] for t in timings))
+                gpu_readback_ms=med(t.get("gpu_readback_ms", 0.0) for t in timings),
+                host_minus_device_ms=med(t["python_total_ms"] - t["gpu_total_ms"] - t.get("gpu_readback_ms", 0.0)
+                                         for t in timings))
 
 
 def bench_mesh(name, mesh, args):
@@ -175,6 +182,7 @@ def bench_mesh(name, mesh, args):
         max_vertex_dev_rel=float(np.abs(res.vertices - ref.vertices).max() / diag),
     )
     row["factor"] = row["cpu_xyz_ms"] / row["gpu_xyz_e2e_ms"]
+    row["e2e_over_floor"] = row["gpu_xyz_e2e_ms"] / floor_ms(mesh.n_vertices, args.bandwidth)
     return row
 
 
@@ -182,7 +190,7 @@ def bench_scaling(args, device, precision):
     """Time per xyz frame against triangles on subdivided icospheres."""
     rows = []
     r = args.repeats
-    for s in range(5, args.max_subdiv + 1):
+    for s in range(args.min_subdiv, args.max_subdiv + 1):
         faces = 20 * 4 ** s
         print(f"icosphere({s}): {faces} triangles ...", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
@@ -218,7 +226,27 @@ def bench_scaling(args, device, precision):
         # What the host adds to the device's frame, per vertex, frame by frame (the
         # Python call end to end less its own device time; the target: 1.5 ns on lavapipe).
         row["host_ns_per_vertex"] = row["host_minus_device_ms"] * 1e6 / mesh.n_vertices
+        floor = floor_ms(mesh.n_vertices, args.bandwidth)
+        row["e2e_over_floor"] = row["gpu_xyz_e2e_ms"] / floor
+        row["e2e_out_over_floor"] = row["gpu_xyz_e2e_out_ms"] / floor
         row["ns_per_face"] = row["gpu_xyz_ms"] * 1e6 / faces
+        if args.readback_ab:
+            # The same frames read back in the device's order and reordered on the host
+            # (VPFFD_VULKAN_READBACK=host): the A/B of the caller's order made on the device.
+            os.environ["VPFFD_VULKAN_READBACK"] = "host"
+            try:
+                ref = vpffd.Deformer(mesh, lat, backend="vulkan", device=args.device, gpu_precision=args.precision)
+            finally:
+                del os.environ["VPFFD_VULKAN_READBACK"]
+            ref.deform(P, out=out)
+            hr = []
+            for _ in range(max(1, r // 2)):
+                t0 = time.perf_counter()
+                ref.deform(P, out=out)
+                hr.append((time.perf_counter() - t0) * 1e3)
+            row["gpu_xyz_e2e_out_host_order_ms"] = med(hr)
+            row["host_order_unpack_ms"] = ref.last_timings()["host_unpack_ms"]
+            del ref
         if args.cpu:
             cpu = gpu._d  # the CPU core of the same mesh (all OpenMP threads), no second embedding
             cpu.deform(Pflat)
@@ -235,8 +263,10 @@ def bench_scaling(args, device, precision):
             ("gpu_ffd_ms", "{:.3f}"), ("gpu_step_ms", "{:.3f}"), ("gpu_xyz_kept_ms", "{:.3f}"),
             ("gpu_xyz_e2e_ms", "{:.3f}"), ("gpu_xyz_e2e_out_ms", "{:.3f}"), ("stage_prepare_ms", "{:.3f}"),
             ("stage_submit_wait_ms", "{:.3f}"), ("stage_unpack_ms", "{:.3f}"), ("stage_python_ms", "{:.3f}"),
-            ("host_ns_per_vertex", "{:.2f}"), ("ns_per_face", "{:.3f}")] + \
-        ([("cpu_xyz_ms", "{:.2f}")] if args.cpu else []) + [("volume_error_gpu", "{:.1e}"), ("setup_s", "{:.1f}")]
+            ("gpu_readback_ms", "{:.3f}"), ("host_ns_per_vertex", "{:.2f}"), ("e2e_over_floor", "{:.1f}"),
+            ("e2e_out_over_floor", "{:.1f}"), ("ns_per_face", "{:.3f}")] + \
+        ([("gpu_xyz_e2e_out_host_order_ms", "{:.3f}"), ("host_order_unpack_ms", "{:.3f}")] if args.readback_ab
+         else []) + ([("cpu_xyz_ms", "{:.2f}")] if args.cpu else []) + [("volume_error_gpu", "{:.1e}"), ("setup_s", "{:.1f}")]
     print(f"\nScaling (ms per xyz frame, medians of {r}) on {device['name']} ({device['type']}, {precision} sums), "
           f"{args.shape}^3 lattice of degree {args.degree}")
     cells = [[fmt.format(x[k]) for k, fmt in cols] for x in rows]
@@ -245,6 +275,7 @@ def bench_scaling(args, device, precision):
     for c in cells:
         print("  ".join(v.rjust(w) for v, w in zip(c, width)))
     print(f"load average {load()}")
+    print(floor_note(args.bandwidth))
     print(f"fit over >= 300k triangles: gpu_xyz_ms = {a:.3f} + {b * 1e6:.3f} ms per million triangles")
     if device["type"] == "cpu":
         print("(a software Vulkan device: these GPU times only show that the path runs, not GPU speed)")
@@ -255,7 +286,7 @@ COLUMNS = [("model", "model", "{}"), ("vertices", "vertices", "{}"), ("gpu_ffd_m
            ("cpu_vol_x_ms", "CPU VOL(x)", "{:.2f}"), ("gpu_vol_x_ms", "GPU VOL(x)", "{:.2f}"),
            ("cpu_xyz_ms", "CPU xyz", "{:.2f}"), ("gpu_xyz_ms", "GPU xyz", "{:.2f}"),
            ("gpu_xyz_e2e_ms", "GPU xyz e2e", "{:.2f}"), ("gpu_xyz_kept_ms", "GPU xyz kept", "{:.2f}"),
-           ("factor", "factor", "{:.2f}"), ("volume_error_gpu", "vol err GPU", "{:.1e}"),
+           ("factor", "factor", "{:.2f}"), ("e2e_over_floor", "e2e / floor", "{:.1f}"), ("volume_error_gpu", "vol err GPU", "{:.1e}"),
            ("max_vertex_dev_rel", "dev/diag", "{:.1e}"), ("gpu_xyz_normals_ms", "GPU xyz+N", "{:.2f}"),
            ("cpu_normals_ms", "CPU N", "{:.2f}"), ("normals_max_angle_deg", "N angle deg", "{:.1e}")]
 
@@ -269,8 +300,14 @@ def print_table(rows, device, precision):
     print("  ".join(h.rjust(w) for h, w in zip(head, width)))
     for c in cells:
         print("  ".join(x.rjust(w) for x, w in zip(c, width)))
+    print(floor_note(args.bandwidth))
     if device["type"] == "cpu":
         print("(a software Vulkan device: these GPU times only show that the path runs, not GPU speed)")
+
+
+def floor_note(bandwidth: float) -> str:
+    return (_floor.note(bandwidth) + ". host_ns_per_vertex: the Python call less the device's frame and read "
+            "back, per vertex")
 
 
 def main(argv=None):
@@ -291,10 +328,15 @@ def main(argv=None):
                     help="time per frame against triangles on icospheres built in code (see above)")
     ap.add_argument("--max-subdiv", type=int, default=9,
                     help="--scaling: largest icosphere subdivision (9: 5.2 M triangles, 10: 21 M)")
+    ap.add_argument("--min-subdiv", type=int, default=5, help="--scaling: smallest icosphere subdivision")
+    ap.add_argument("--readback-ab", action="store_true",
+                    help="--scaling: also time the frames with VPFFD_VULKAN_READBACK=host (the device's vertex "
+                         "order reordered on the host)")
     ap.add_argument("--no-cpu", dest="cpu", action="store_false", help="--scaling: skip the CPU frame times")
     args = ap.parse_args(argv)
     if not vpffd._core.has_vulkan:
         sys.exit("bench_gpu: this vpffd build has no Vulkan backend")
+    args.bandwidth = copy_bandwidth()
     probe = vpffd.Deformer(vpffd.shapes.icosphere(1), vpffd.Lattice.around(vpffd.shapes.icosphere(1), shape=4),
                            backend="vulkan", device=args.device, gpu_precision=args.precision)
     device = probe.device
@@ -312,7 +354,7 @@ def main(argv=None):
             w.writerows(rows)
         meta = dict(device=device, cpu=cpu_model(), load_start=load_start, load_end=load(), cores=os.cpu_count(), python=platform.python_version(),
                     vpffd=vpffd.__version__, precision=probe.gpu_precision, shape=args.shape, degree=args.degree,
-                    repeats=args.repeats, fit=fit,
+                    repeats=args.repeats, fit=fit, copy_bandwidth_bytes_per_s=args.bandwidth,
                     rows=rows)
         write_text(out / f"gpu_scaling_{slug}.json", json.dumps(meta, indent=1))
         print(f"wrote {out / f'gpu_scaling_{slug}.csv'} and .json", file=sys.stderr)
@@ -331,7 +373,7 @@ def main(argv=None):
         w.writerows(rows)
     meta = dict(device=device, cpu=cpu_model(), load_start=load_start, load_end=load(), cores=os.cpu_count(), python=platform.python_version(),
                 vpffd=vpffd.__version__, precision=probe.gpu_precision, shape=args.shape, degree=args.degree,
-                repeats=args.repeats, rows=rows)
+                repeats=args.repeats, copy_bandwidth_bytes_per_s=args.bandwidth, rows=rows)
     write_text(out / f"gpu_{slug}.json", json.dumps(meta, indent=1))
     print(f"wrote {out / f'gpu_{slug}.csv'} and .json", file=sys.stderr)
 

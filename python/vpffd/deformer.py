@@ -509,7 +509,10 @@ class Deformer:
             it holds the refused frame). Without ``out`` a frame may reuse the
             vertex array of an earlier frame once nothing holds that array any more
             (no reference, view or result; ``vpffd._spare``): results are never
-            overwritten, only raw addresses taken from dropped arrays go stale.
+            overwritten, only raw addresses taken from dropped arrays go stale. On
+            "vulkan" the array is the host memory the device read the vertices
+            back into (no copy on the host): the same rule, and it stays valid
+            after the Deformer is gone.
         out_normals : (V, 3) float64 array, optional
             the same for ``result.normals`` (with ``normals=True``).
         method : {"traversal", "csr"}
@@ -603,13 +606,15 @@ class Deformer:
                           "centre, which depends on where that centre is", stacklevel=2)
         opts = self._frame_options(bool(preserve_volume), axes, w, fx, cons, tv, part_targets, method,
                                    bool(allow_open), int(rounds), bool(allow_inversion))
-        into = out if out is not None else self._spares.take("deform", (nv, 3))
         if self._vk is not None:
-            r = self._vk.deform(P, opts, normals=bool(normals), out=into, out_normals=out_normals)
+            # Without out= the vertices are the device's read-back memory itself (no
+            # copy): the core reuses it once nobody holds the array, so no spare here.
+            r = self._vk.deform(P, opts, normals=bool(normals), out=out, out_normals=out_normals)
         else:
+            into = out if out is not None else self._spares.take("deform", (nv, 3))
             r = self._core.deform(P, opts, into)
-        if out is None:
-            self._spares.keep("deform", r["vertices"])
+            if out is None:
+                self._spares.keep("deform", r["vertices"])
         folds = _folds.check_frame(self, r["control_points"], on_fold, self._restore_last_frame)
         if self._vk is not None:
             self._last_frame = (np.array(P), opts)  # P may be a view of the caller's array
@@ -711,12 +716,14 @@ class Deformer:
         queries, ``gpu_ffd_ms``, ``gpu_steps_ms`` per axis, ``host_total_ms`` the core's
         call end to end; ``gpu_move_ms``: the device embedding, cell sort and tiles of a
         ``set_rest_vertices`` that ran first in this frame's submission, not part of
-        ``gpu_total_ms``, 0.0 when no move waited for the frame).
+        ``gpu_total_ms``, 0.0 when no move waited for the frame; ``gpu_readback_ms``: the
+        read back's device work after the frame, the vertices put in the caller's order
+        and copied to host memory, 0.0 without vertices).
 
         The host's stages: ``host_prepare_ms`` (checks, plan, staging the control points
         and frame data in mapped memory), ``host_submit_wait_ms`` (submission until the
         queue is idle: the device's work and the driver's around it),
-        ``host_unpack_ms`` (the read back into the caller's vertex order in float64),
+        ``host_unpack_ms`` (the read back into the caller's array, in float64),
         and ``python_total_ms``, the whole ``deform`` call (the Python checks, the
         result's arrays and the fold check on top of ``host_total_ms``). With frames on
         several threads these are of the last frame to finish."""

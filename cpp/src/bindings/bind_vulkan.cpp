@@ -38,6 +38,7 @@ py::dict timings_to_python(const vulkan::FrameTimings& t) {
   o["gpu_steps_ms"] = t.gpu_steps;
   o["gpu_final_ms"] = t.gpu_final;
   o["gpu_move_ms"] = t.gpu_move;
+  o["gpu_readback_ms"] = t.gpu_readback;
   o["host_total_ms"] = t.host_total;
   o["host_prepare_ms"] = t.host_prepare;
   o["host_submit_wait_ms"] = t.host_submit_wait;
@@ -150,9 +151,14 @@ void bind_vulkan(py::module_& m) {
             double* into_n = normals ? out_rows(out_normals, nv, "deform (normals)") : nullptr;
             DeformResult r;
             RowMatrixX3d N;
+            std::shared_ptr<const double> shared;
             {
               py::gil_scoped_release release;
-              if (into || into_n) {
+              if (read_vertices && !into) {
+                // The vertices are the read-back memory itself (no copy), held by the array.
+                if (normals && !into_n) N.resize(nv, 3);
+                r = d.deform(P, o, &shared, into_n ? into_n : (normals ? N.data() : nullptr));
+              } else if (into || into_n) {
                 // read back into the caller's arrays; the vertices into a buffer of ours
                 // only when asked for without `out`.
                 RowMatrixX3d X(into || !read_vertices ? 0 : nv, 3);
@@ -166,6 +172,14 @@ void bind_vulkan(py::module_& m) {
             }
             py::dict res = result_to_python(std::move(r));
             if (into) res["vertices"] = out;
+            if (shared) {
+              // The array keeps the memory (and the device) alive; the deformer writes it
+              // again only once this array and every view of it are gone.
+              auto* keep = new std::shared_ptr<const double>(shared);
+              py::capsule owner(keep, [](void* p) { delete static_cast<std::shared_ptr<const double>*>(p); });
+              res["vertices"] = py::array_t<double>({static_cast<py::ssize_t>(nv), py::ssize_t(3)},
+                                                    const_cast<double*>(shared.get()), owner);
+            }
             if (normals) res["normals"] = into_n ? out_normals : py::cast(std::move(N));
             return res;
           },

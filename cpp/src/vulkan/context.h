@@ -17,7 +17,7 @@
 namespace vpffd::vulkan::detail {
 
 /// Storage buffers of the pipeline layout (the bindings of shaders/common.glsl).
-constexpr std::uint32_t kBindings = 30;
+constexpr std::uint32_t kBindings = 31;
 /// Most shared memory a shader declares (solve.comp: 3 x 256 reals = 6 KiB), rounded
 /// up to the 16 KiB every Vulkan device has.
 constexpr std::uint32_t kSharedBytes = 16 * 1024;

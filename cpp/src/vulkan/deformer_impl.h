@@ -54,8 +54,10 @@ constexpr int kTile = VPFFD_TILE;
 constexpr int kGroup = VPFFD_GROUP;
 constexpr std::uint32_t kMaxGroups = VPFFD_RED_STRIDE;
 constexpr std::uint32_t kQueries = 3 + kMaxSteps;
-// After the frame's queries: the start and end of a move's device embedding (embed_cb).
+// After the frame's queries: the start and end of a move's device embedding (embed_cb),
+// then those of the read back (readback_cb).
 constexpr std::uint32_t kMoveQuery = kQueries;
+constexpr std::uint32_t kReadbackQuery = kQueries + 2;
 constexpr size_t kMaxRecorded = 4;  // frame command buffers kept, one per options shape
 
 // The push constants: the `Push` block of shaders/common.glsl, field by field.
@@ -107,6 +109,7 @@ using detail::kMaxRecorded;
 using detail::kMaxSteps;
 using detail::kMoveQuery;
 using detail::kQueries;
+using detail::kReadbackQuery;
 using detail::kTile;
 using detail::ST_SIZE;
 
@@ -185,7 +188,7 @@ struct VulkanDeformer::Impl {
     bConsI = VPFFD_B_CONS_I, bStats = VPFFD_B_STATS, bRed = VPFFD_B_RED, bConsD = VPFFD_B_CONS_D,
     bWork = VPFFD_B_WORK, bNrm0 = VPFFD_B_NRM0, bNrm = VPFFD_B_NRM, bNrmTab = VPFFD_B_NRM_TAB,
     bSort = VPFFD_B_SORT, bTies = VPFFD_B_TIES, bSeam = VPFFD_B_SEAM, bParts = VPFFD_B_PARTS,
-    bSlotVertex = VPFFD_B_SLOT_VERTEX, kNumBuf = VPFFD_B_COUNT
+    bSlotVertex = VPFFD_B_SLOT_VERTEX, bPlaced = VPFFD_B_PLACED, kNumBuf = VPFFD_B_COUNT
   };
   static_assert(kNumBuf == int(kBindings), "one binding per device buffer");
   Buffer buf[kNumBuf];
@@ -193,6 +196,19 @@ struct VulkanDeformer::Impl {
   Buffer up_rest;  // staging of the rest positions (3V reals)
   Buffer up_offsets;  // staging of set_rest_offsets' translations (3K reals)
   bool normals_ready = false;  // the rest normals are on the device (a submission ran)
+  // Frames read back their vertices and normals already in the caller's order
+  // (place.comp: the host copies in order, no reorder), unless VPFFD_VULKAN_READBACK=host
+  // asks for the device's order reordered on the host (the reference the tests compare
+  // with, bit for bit, and the benchmarks' A/B).
+  bool place_on_device = true;
+  // Bytes of one placed value: world coordinates in double, or float32 in float-float
+  // builds (whose shaders may not use doubles), which the host widens.
+  size_t placed_real() const { return ff ? 4 : 8; }
+  // place.comp's units in the frame parameters (fr: at least FR_RHS reals).
+  void put_units(double* fr) const {
+    fr[FR_SCALE] = scale;
+    for (int a = 0; a < 3; ++a) fr[FR_ORIGIN + a] = origin[a];
+  }
   // The vertices before the frame now running: a frame whose failure is only known
   // after it ran (see deform) puts them back, so a failed frame never becomes visible.
   Buffer x_good;
@@ -205,6 +221,24 @@ struct VulkanDeformer::Impl {
   // Copies the device vertices to rb_X; recorded once, submitted after a frame in the
   // same vkQueueSubmit (no second wait per frame) or alone by vertices().
   VkCommandBuffer readback_cb = VK_NULL_HANDLE;
+  // The memory of frames' results handed out as shared pointers (deform with a shared
+  // pointer): placed float64 vertices are read back straight into `rb`, the result
+  // itself (no copy); otherwise (float-float, VPFFD_VULKAN_READBACK=host) they are
+  // unpacked from rb_X into `host`. One is reused once nobody else holds it, so frames
+  // do not fault fresh pages in. The device outlives every buffer (each holds it), so a
+  // result may outlive the deformer.
+  struct HostFrame {
+    std::shared_ptr<detail::Device> dev;  // first: destroyed last
+    Buffer rb;
+    RowMatrixX3d host;
+    const double* data() const { return rb.handle() ? static_cast<const double*>(rb.mapped()) : host.data(); }
+  };
+  struct SharedReadback {
+    std::shared_ptr<HostFrame> frame;
+    VkCommandBuffer cb = VK_NULL_HANDLE;  // its readback (recorded again after forget_recordings)
+  };
+  std::vector<SharedReadback> shared_rb;
+  static constexpr size_t kMaxSharedReadbacks = 3;
   Owned<VkFence> fence;
   Owned<VkQueryPool> queries;
 
@@ -315,9 +349,13 @@ struct VulkanDeformer::Impl {
   void forget_recordings() {
     for (Recorded& r : recorded) vkFreeCommandBuffers(d, cmd_pool.get(), 1, &r.cb);
     recorded.clear();
-    for (VkCommandBuffer* cb : {&embed_cb, &offset_cb}) {
+    for (VkCommandBuffer* cb : {&embed_cb, &offset_cb, &readback_cb}) {
       if (*cb) vkFreeCommandBuffers(d, cmd_pool.get(), 1, cb);
       *cb = VK_NULL_HANDLE;  // recorded again when a move needs it
+    }
+    for (SharedReadback& s : shared_rb) {
+      if (s.cb) vkFreeCommandBuffers(d, cmd_pool.get(), 1, &s.cb);
+      s.cb = VK_NULL_HANDLE;
     }
   }
 
@@ -383,17 +421,63 @@ struct VulkanDeformer::Impl {
   void create_pipelines(const std::array<std::int32_t, 16>& spec);
 
   // ---- frames (all with frame_mutex held) -----------------------------------------
+  // Copies the frame's vertices to rb_X: placed in the caller's order (place.comp) or,
+  // with !place_on_device, as the device's slots hold them. Recorded again after a
+  // rebinding (forget_recordings).
   VkCommandBuffer readback() {
     if (readback_cb) return readback_cb;
-    rb_X = Buffer(*dev, 12 * nv, Buffer::Readback, "vertices (read-back)");
-    readback_cb = detail::allocate_command_buffer(d, cmd_pool.get());
-    begin(readback_cb, false);
-    barrier(readback_cb);
-    copy(readback_cb, buf[bX], rb_X, 12 * nv);
-    host_barrier(readback_cb);
-    detail::check(vkEndCommandBuffer(readback_cb), "vkEndCommandBuffer");
+    const VkDeviceSize bytes = readback_bytes();
+    if (!rb_X.handle() || rb_X.size() < bytes) rb_X = Buffer(*dev, bytes, Buffer::Readback, "vertices (read-back)");
+    readback_cb = record_readback(rb_X);
     return readback_cb;
   }
+  VkDeviceSize readback_bytes() const { return place_on_device ? 3 * placed_real() * nv : 12 * nv; }
+  VkCommandBuffer record_readback(const Buffer& dst) {
+    const VkCommandBuffer cb = detail::allocate_command_buffer(d, cmd_pool.get());
+    begin(cb, false);
+    if (dev->timestamps) {
+      vkCmdResetQueryPool(cb, queries.get(), kReadbackQuery, 2);
+      vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries.get(), kReadbackQuery);
+    }
+    barrier(cb);
+    if (place_on_device) {
+      vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
+      dispatch(cb, kPlace, g_vert, Push{});
+      copy(cb, buf[bPlaced], dst, readback_bytes());
+    } else {
+      copy(cb, buf[bX], dst, readback_bytes());
+    }
+    host_barrier(cb);
+    timestamp(cb, kReadbackQuery + 1);
+    detail::check(vkEndCommandBuffer(cb), "vkEndCommandBuffer");
+    return cb;
+  }
+  // A shared result nobody else holds (made when fewer than kMaxSharedReadbacks
+  // exist), or null: the frame then copies into new memory.
+  SharedReadback* free_shared_readback() {
+    SharedReadback* s = nullptr;
+    for (SharedReadback& x : shared_rb)
+      if (x.frame.use_count() == 1) {  // only here: no result holds it (a count only we raise)
+        s = &x;
+        break;
+      }
+    if (!s && shared_rb.size() < kMaxSharedReadbacks) {
+      auto f = std::make_shared<HostFrame>();
+      f->dev = dev;
+      if (direct_readback())
+        f->rb = Buffer(*dev, readback_bytes(), Buffer::Readback, "vertices (read-back, shared)");
+      else
+        f->host.resize(nv, 3);
+      shared_rb.push_back({std::move(f), VK_NULL_HANDLE});
+      s = &shared_rb.back();
+    }
+    if (s && direct_readback() && !s->cb) s->cb = record_readback(s->frame->rb);
+    return s;
+  }
+  // Whether read-back memory holds the caller's float64 vertices as they are.
+  bool direct_readback() const { return place_on_device && !ff; }
+  // The read back of a frame whose vertices go to `s` (or, null, to rb_X).
+  VkCommandBuffer readback_into(SharedReadback* s) { return s && s->cb ? s->cb : readback(); }
 
   // #V x 3 device vertices in the input order (runs readback() alone).
   RowMatrixX3d read_vertices() {
@@ -403,23 +487,37 @@ struct VulkanDeformer::Impl {
     return unpack_vertices();
   }
 
-  // rb_X, filled by readback(), in the input order and world units. On all cores: on an
-  // H100 a 2.6 M-vertex frame took 80 ms end to end against 1.6 ms on the device, the
-  // rest on the host (not broken down there); this scattered conversion was serial.
+  // rb_X, filled by readback(), in the input order and world units.
   RowMatrixX3d unpack_vertices() const { return unpack(rb_X, scale, origin); }
 
   // rb_N, filled by a frame with normals, in the input order.
   RowMatrixX3d unpack_normals() const { return unpack(rb_N, 1.0, Vector3d::Zero()); }
 
-  // Device slot i's float32 triple of `rb`, times `s` plus `o`, as input vertex slot[i].
+  // The #V x 3 values of read-back buffer `rb` in the input order, times `s` plus `o`.
   RowMatrixX3d unpack(const Buffer& rb, double s, const Vector3d& o) const {
     RowMatrixX3d out(nv, 3);
     unpack(rb, s, o, out.data());
     return out;
   }
-  // The same into the caller's #V x 3 row-major array.
+  // The same into the caller's #V x 3 row-major array. Placed values are in the
+  // caller's order already: streams in order on all cores (float64: a copy; float32:
+  // widened with the arithmetic place.comp's float64 build uses). Else device slot i's
+  // float32 triple goes to input vertex slot[i], scattered: on an H100 a 2.6 M-vertex
+  // frame took 80 ms end to end against 1.6 ms on the device, most of it here.
   void unpack(const Buffer& rb, double s, const Vector3d& o, double* out) const {
+    if (place_on_device && !ff) {
+      const double* x = static_cast<const double*>(rb.mapped());
+      parallel_range(3 * nv, 0, [&](Index b, Index e) { std::memcpy(out + b, x + b, 8 * size_t(e - b)); });
+      return;
+    }
     const float* x = static_cast<const float*>(rb.mapped());
+    if (place_on_device) {
+      parallel_range(nv, 0, [&](Index b, Index e) {
+        for (Index i = b; i < e; ++i)
+          for (int a = 0; a < 3; ++a) out[3 * i + a] = double(x[3 * i + a]) * s + o[a];
+      });
+      return;
+    }
     parallel_range(nv, 0, [&](Index b, Index e) {
       for (Index i = b; i < e; ++i)
         for (int a = 0; a < 3; ++a) out[3 * Index(slot[i]) + a] = double(x[3 * i + a]) * s + o[a];
@@ -443,10 +541,12 @@ struct VulkanDeformer::Impl {
     if (normals_ready) return false;
     reserve(bNrm0, nullptr, 12 * nv, "rest normals");
     reserve(bNrm, nullptr, 12 * nv, "normals");
+    if (place_on_device) reserve(bPlaced, nullptr, 6 * placed_real() * nv, "vertices and normals (caller's order)");
     barrier(cmd);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
     dispatch(cmd, kRestNormals, g_vert, Push{});
-    if (!rb_N.handle()) rb_N = Buffer(*dev, 12 * nv, Buffer::Readback, "normals (read-back)");
+    if (!rb_N.handle())
+      rb_N = Buffer(*dev, (place_on_device ? 3 * placed_real() : 12) * nv, Buffer::Readback, "normals (read-back)");
     return true;
   }
 
@@ -457,15 +557,21 @@ struct VulkanDeformer::Impl {
   // computes normals).
   DeformResult run_frame(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt, bool read_vertices,
                          RowMatrixX3d* normals, const detail::FrameTail* tail, double* out_vertices = nullptr,
-                         double* out_normals = nullptr);
+                         double* out_normals = nullptr, std::shared_ptr<const double>* shared_vertices = nullptr);
 
   // Into `cb` (a caller's, begun; frame_mutex held): the plain FFD of the control points
-  // in buf[bP] and the copy of the vertices to rb_X (readback() must have run).
+  // in buf[bP] and the copy of the vertices to rb_X as readback() leaves them (it must
+  // have run).
   void record_ffd_readback(VkCommandBuffer cb) {
     barrier(cb);
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pl.layout.get(), 0, 1, &pl.set, 0, nullptr);
     dispatch(cb, kFfd, g_vert, Push{});
-    copy(cb, buf[bX], rb_X, 12 * nv);
+    if (place_on_device) {
+      dispatch(cb, kPlace, g_vert, Push{});
+      copy(cb, buf[bPlaced], rb_X, 3 * placed_real() * nv);
+    } else {
+      copy(cb, buf[bX], rb_X, 12 * nv);
+    }
   }
 
   // Uploads the constraint block (into `cmd`, begun) when the rows or the weights changed.

@@ -84,7 +84,15 @@ const VulkanDeformer::Impl::Recorded& VulkanDeformer::Impl::frame_commands(const
     Push np;
     np.flags = shape.mode == Shape::Plain ? 0 : 8;
     dispatch(cb, kNormals, g_vert, np);
-    copy(cb, buf[bNrm], rb_N, 12 * nv);
+    if (place_on_device) {
+      Push pn;
+      pn.slot = 1;  // the normals, into the second region
+      dispatch(cb, kPlace, g_vert, pn);
+      const VkDeviceSize bytes = 3 * placed_real() * nv;
+      copy(cb, buf[bPlaced], rb_N, bytes, bytes, 0);
+    } else {
+      copy(cb, buf[bNrm], rb_N, 12 * nv);
+    }
   }
   if (steps) copy(cb, buf[bDelta], rb_delta, 24 * N);
   if (steps) copy(cb, buf[bStats], rb_stats, 8 * (ST_STEP + ST_STEP_STRIDE * k));

@@ -167,6 +167,16 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   auto mk = [&](Buf i, size_t bytes, const char* what) { buf[i] = B(*dev, bytes, B::DeviceLocal, what); };
   mk(bP, 12 * NE, "control points");
   mk(bX, 12 * nv, "vertices");
+  if (const char* e = std::getenv("VPFFD_VULKAN_READBACK"); e && *e) {
+    const std::string v = e;
+    if (v != "device" && v != "host")
+      throw InvalidInputError("VPFFD_VULKAN_READBACK: expected 'device' (the caller's vertex order made on the "
+                              "device) or 'host' (reordered on the host), got '" + v + "'");
+    place_on_device = v == "device";
+  }
+  // The vertices in the caller's order (place.comp); the normals' region is added by
+  // the first frame that asks for normals (prepare_normals).
+  mk(bPlaced, place_on_device ? 3 * placed_real() * nv : 16, "vertices (caller's order)");
   x_good = B(*dev, 12 * nv, B::DeviceLocal, "vertices of the last good frame");
   mk(bF, 12 * nf, "faces");
   mk(bAdjPtr, 4 * adj.indptr.size(), "adjacency");
@@ -179,7 +189,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   mk(bTileVol, 8 * n_tiles, "tile volumes");
   mk(bScan, 4 * scan_size, "cell sort counts");
   mk(bRest, 8 * (3 * nv + em.size()), "rest positions");
-  mk(bSlotVertex, 4 * size_t(nv), "slot vertices");
+  mk(bSlotVertex, 8 * size_t(nv), "slot vertices");
   mk(bSort, 4 * (4 * nv + 2 * n_keys), "cell sort");
   up_rest = B(*dev, 24 * nv, B::Upload, "rest positions (upload)");
   up_offsets = B(*dev, 24 * size_t(K), B::Upload, "rest offsets (upload)");
@@ -235,7 +245,7 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   cmd_pool = detail::create_command_pool(*dev);
   cmd = detail::allocate_command_buffer(d, cmd_pool.get());
   fence = detail::create_fence(d);
-  queries = detail::create_timestamp_queries(*dev, kQueries + 2);
+  queries = detail::create_timestamp_queries(*dev, kReadbackQuery + 2);
 
   // One-time upload through temporary staging buffers, one submission.
   std::vector<B> staging;
@@ -253,7 +263,20 @@ void VulkanDeformer::Impl::build(const std::string& selector, Precision wanted) 
   put(bNrmTab, nrm_tab_dev.data(), 8 * nrm_tab_dev.size());
   put(bTies, tie_map.data(), 4 * tie_map.size());
   put(bParts, part_map.data(), 4 * part_map.size());
-  put(bSlotVertex, order.data(), 4 * size_t(nv));
+  {
+    // Each slot's caller vertex, then each caller vertex's slot (place.comp's gather).
+    std::vector<std::int32_t> both(order.begin(), order.end());
+    both.resize(2 * size_t(nv));
+    for (Index i = 0; i < nv; ++i) both[nv + order[i]] = static_cast<std::int32_t>(i);
+    put(bSlotVertex, both.data(), 4 * both.size());
+  }
+  {
+    // place.comp's units before any frame (vertices() reads back the rest positions).
+    std::vector<double> fr(FR_RHS, 0.0), fr_dev(FR_RHS);
+    put_units(fr.data());
+    put_reals(fr_dev.data(), fr.data(), fr.size(), ff);
+    put(bFrame, fr_dev.data(), 8 * fr_dev.size());
+  }
   // The table goes behind the rest positions (their place is filled per move).
   staging.emplace_back(*dev, 8 * em_dev.size(), B::Upload, "staging");
   std::memcpy(staging.back().mapped(), em_dev.data(), 8 * em_dev.size());

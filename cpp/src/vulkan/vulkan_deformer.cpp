@@ -98,10 +98,16 @@ DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, con
   return impl_->run_frame(P, opt, /*read_vertices=*/vertices != nullptr, nullptr, nullptr, vertices, normals);
 }
 
+DeformResult VulkanDeformer::deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
+                                    std::shared_ptr<const double>* vertices, double* normals) {
+  VPFFD_CHECK(vertices != nullptr, "VulkanDeformer::deform: no place for the vertices' pointer");
+  return impl_->run_frame(P, opt, /*read_vertices=*/true, nullptr, nullptr, nullptr, normals, vertices);
+}
+
 DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
                                              bool read_vertices, RowMatrixX3d* normals,
                                              const detail::FrameTail* tail, double* out_vertices,
-                                             double* out_normals) {
+                                             double* out_normals, std::shared_ptr<const double>* shared_vertices) {
   static const char axis_name[3] = {'x', 'y', 'z'};
   const auto t_start = std::chrono::steady_clock::now();
   Impl& m = *this;
@@ -194,6 +200,7 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
     fr[FR_TARGET] = target / s3;
     fr[FR_MAX_INVW] = inv_weight.maxCoeff();
     fr[FR_HI] = m.cons.hi;
+    m.put_units(fr.data());
     for (int a = 0; a < 3; ++a) {
       const std::vector<double> rhs = constraint_rhs(rows, opt.constraints, a, expand_column(topo.ties, P.col(a), a));
       for (size_t i = 0; i < nc; ++i) fr[FR_RHS + a * nc + i] = rhs[i] / s;
@@ -221,7 +228,9 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   if (moved) cbs[n_cbs++] = moved;
   if (aux) cbs[n_cbs++] = m.cmd;
   cbs[n_cbs++] = rec.cb;
-  if (read_vertices) cbs[n_cbs++] = m.readback();
+  // Shared vertices: straight into a buffer that becomes the result, when one is free.
+  SharedReadback* const shared = shared_vertices ? m.free_shared_readback() : nullptr;
+  if (read_vertices) cbs[n_cbs++] = m.readback_into(shared);
   if (tail) cbs[n_cbs++] = tail->record(shape.mode != Shape::Plain);
   const double prepared = ms_since(t_start);
   const auto t_submit = std::chrono::steady_clock::now();
@@ -252,6 +261,13 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
                                           sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
                     "vkGetQueryPoolResults");
       tm.gpu_move = double(tm_move[1] - tm_move[0]) * p;
+    }
+    if (read_vertices) {
+      std::uint64_t tr[2] = {};
+      detail::check(vkGetQueryPoolResults(m.d, m.queries.get(), kReadbackQuery, 2, sizeof(tr), tr,
+                                          sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+                    "vkGetQueryPoolResults");
+      tm.gpu_readback = double(tr[1] - tr[0]) * p;
     }
   }
 
@@ -339,7 +355,15 @@ DeformResult VulkanDeformer::Impl::run_frame(const Eigen::Ref<const RowMatrixX3d
   res.constraint_error = constraint_error(rows, expand_points(topo.ties, res.control_points), opt.constraints);
   // Under the frame's lock: another thread's frame would overwrite rb_X.
   const auto t_unpack = std::chrono::steady_clock::now();
-  if (read_vertices && out_vertices)
+  if (shared) {
+    if (!m.direct_readback()) m.unpack(m.rb_X, m.scale, m.origin, shared->frame->host.data());
+    *shared_vertices = std::shared_ptr<const double>(shared->frame, shared->frame->data());
+  } else if (shared_vertices) {
+    // Every shared buffer is held (or float-float): new memory, copied into.
+    auto x = std::make_shared<RowMatrixX3d>(m.nv, 3);
+    m.unpack(m.rb_X, m.scale, m.origin, x->data());
+    *shared_vertices = std::shared_ptr<const double>(x, x->data());
+  } else if (read_vertices && out_vertices)
     m.unpack(m.rb_X, m.scale, m.origin, out_vertices);
   else if (read_vertices)
     res.vertices = m.unpack_vertices();

@@ -112,6 +112,9 @@ struct FrameTimings {
   double gpu_move = 0;            ///< a move's device embedding that ran first in this frame's submission
                                   ///< (embedding, cell sort, tiles; set_rest_vertices), not in gpu_total;
                                   ///< 0 when no move waited for the frame
+  double gpu_readback = 0;        ///< the read back's device work (the vertices put in the caller's
+                                  ///< order, and their copy to host memory), after gpu_total; 0
+                                  ///< without vertices read back
   double host_total = 0;          ///< deform() call, end to end (upload, submit, wait, read back)
   /// The host's stages of host_total: the options' checks, the plan and the staging of
   /// the control points and frame data in mapped memory (and recording, when the
@@ -168,6 +171,16 @@ class VulkanDeformer {
   /// is not null, the normals into it. The result's `vertices` is empty.
   DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt, double* vertices,
                       double* normals);
+  /// deform() whose vertices are not copied: *vertices points at the #V x 3 row-major
+  /// float64 vertices (input order) in the host memory the device read them back into.
+  /// The lifetime rule: they stay valid and unchanged while *vertices (or a copy of it)
+  /// is held, also after the deformer is gone; the deformer writes that memory again
+  /// only once nobody holds it. It keeps up to three such buffers; while all are held
+  /// a frame copies into new memory instead. In float-float precision (whose shaders
+  /// read back float32) the vertices are widened into such memory, not read into it.
+  /// `normals` as in the overload above. The result's `vertices` is empty.
+  DeformResult deform(const Eigen::Ref<const RowMatrixX3d>& P, const CorrectionOptions& opt,
+                      std::shared_ptr<const double>* vertices, double* normals = nullptr);
 
   /// #V x 3 vertices of the last frame that succeeded, in the input order (the rest
   /// mesh before any frame, and after set_rest_vertices until the next frame).

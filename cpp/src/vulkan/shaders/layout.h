@@ -37,8 +37,11 @@
 #define VPFFD_B_TIES 26       // int: periodic tie map (common.glsl TIE_*)
 #define VPFFD_B_SEAM 27       // vec4 per vertex slot: shift seam translation, twist seam mirror flag
 #define VPFFD_B_PARTS 28      // int, with parts: each part's faces [PT_FACE_START + k, + k + 1), each slot's part
-#define VPFFD_B_SLOT_VERTEX 29  // int, V: the caller's vertex of each slot (where its rest position is in rest[])
-#define VPFFD_B_COUNT 30
+#define VPFFD_B_SLOT_VERTEX 29  // int, 2V: the caller's vertex of each slot (where its rest position is in
+                               // rest[]), then the slot of each caller vertex (place.comp)
+#define VPFFD_B_PLACED 30     // place.comp's output in the caller's vertex order: 3V vertices, then 3V
+                             // normals (double in the float64 build, float in the float-float one)
+#define VPFFD_B_COUNT 31
 
 // Workgroup sizes.
 #define VPFFD_TILE 64         // vertices per tile = coef.comp's workgroup size
@@ -56,6 +59,8 @@ const int RED_STRIDE = VPFFD_RED_STRIDE;
 const int FR_TARGET = 0;
 const int FR_MAX_INVW = 1;
 const int FR_HI = 2;          // largest eigenvalue of the unit-diagonal constraint block (>= 1)
+const int FR_SCALE = 3;       // world units per device unit (a power of two; place.comp)
+const int FR_ORIGIN = 4;      // 3: the origin of device positions in world units (place.comp)
 const int FR_RHS = 8;         // 3 x nc, axis-major: target - B(u_s) . P along the axis; then with
                               // parts their K target volumes (FR_RHS + 3 nc + k)
 // cons_i[]: ints.
