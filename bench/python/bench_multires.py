@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Benchmark of multiresolution frames (paper 002's Table II).
+"""Benchmark of multiresolution frames (Marinov et al.'s Table II).
 
     .venv/bin/python bench/python/bench_multires.py [--sizes 6 7 8] [--repeats 5] [--no-shared] [--no-vulkan]
         [--meshes dragon bunny armadillo] [--no-rbf] [--rbf-handles 100] [--no-accuracy]
@@ -29,7 +29,7 @@ approximate-normal error table (mean / 95th percentile / max angle to the normal
 of the deformed fine mesh) for a moderate edit and two extreme ones, at several
 smoothing strengths.
 
-The RBF rows (paper 002 §6, ``vpffd.RBFDeformer`` in place of the lattice), per mesh on
+The RBF rows (Marinov et al. §6, ``vpffd.RBFDeformer`` in place of the lattice), per mesh on
 the same decomposition, threads and device, in a second table beside the plain FFD of
 the same row:
   * general mode: ``--rbf-handles`` handle points spread over the mesh (every

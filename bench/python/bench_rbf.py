@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Benchmark of the multiresolution RBF deformer (paper 002 §6).
+"""Benchmark of the multiresolution RBF deformer (Marinov et al. §6).
 
     .venv/bin/python bench/python/bench_rbf.py [--subdivisions 5] [--repeats 7] [--handles 10 40 100 400 1000]
 
@@ -15,7 +15,7 @@ On a bumpy icosphere (subdivisions 5: 10,242 vertices), median frame times of
     base positions alone (the same interpolant; no Jacobians, no reconstruction),
 for n handle vertices (spacing=0: every handle vertex is a constraint; H adds the
 fixed rings). The regions
-frame should be flat in n; the general frame grows as V * H. Then the issue's two
+frame should be flat in n; the general frame grows as V * H. Then the two
 general cases, 40 and 400 handles spread over the mesh, against scipy. Threads: the
 vpffd frames on 1 and on all threads; scipy as it runs (its BLAS decides). The load
 average is printed: the figures are ratios within one run on one machine.

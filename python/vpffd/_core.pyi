@@ -554,7 +554,7 @@ class VulkanSubdivFrame:
         ...
 class VulkanRbfFrame:
     """
-    The RBF regions frame (paper 002 §6) on a Vulkan device, from an RbfRegions setting.
+    The RBF regions frame (Marinov et al. §6) on a Vulkan device, from an RbfRegions setting.
     """
     def __init__(self, regions: RbfRegions, device: str = '', precision: str = 'auto') -> None:
         ...

@@ -336,7 +336,7 @@ void bind_vulkan(py::module_& m) {
 
   using vulkan::VulkanRbfFrame;
   py::class_<VulkanRbfFrame, std::unique_ptr<VulkanRbfFrame>>(
-      m, "VulkanRbfFrame", "The RBF regions frame (paper 002 §6) on a Vulkan device, from an RbfRegions setting.")
+      m, "VulkanRbfFrame", "The RBF regions frame (Marinov et al. §6) on a Vulkan device, from an RbfRegions setting.")
       .def(py::init([](const RbfRegions& r, const std::string& device, const std::string& precision) {
              const vulkan::Precision prec = vulkan::parse_precision(precision);
              const Multires& mr = r.multires();
