@@ -291,7 +291,7 @@ COLUMNS = [("model", "model", "{}"), ("vertices", "vertices", "{}"), ("gpu_ffd_m
            ("cpu_normals_ms", "CPU N", "{:.2f}"), ("normals_max_angle_deg", "N angle deg", "{:.1e}")]
 
 
-def print_table(rows, device, precision):
+def print_table(rows, device, precision, bandwidth):
     print(f"\nTable 2 (ms, medians) on {device['name']} ({device['type']}, {precision} sums); CPU: {cpu_model()}, "
           f"{os.cpu_count()} cores; load average {load()}")
     head = [c[1] for c in COLUMNS]
@@ -300,7 +300,7 @@ def print_table(rows, device, precision):
     print("  ".join(h.rjust(w) for h, w in zip(head, width)))
     for c in cells:
         print("  ".join(x.rjust(w) for x, w in zip(c, width)))
-    print(floor_note(args.bandwidth))
+    print(floor_note(bandwidth))
     if device["type"] == "cpu":
         print("(a software Vulkan device: these GPU times only show that the path runs, not GPU speed)")
 
@@ -365,7 +365,7 @@ def main(argv=None):
         rows.append(bench_mesh(name, mesh, args))
     if not rows:
         sys.exit(f"bench_gpu: no mesh has at most --max-vertices {args.max_vertices} vertices")
-    print_table(rows, device, probe.gpu_precision)
+    print_table(rows, device, probe.gpu_precision, args.bandwidth)
     out.mkdir(parents=True, exist_ok=True)
     with open_replacing(out / f"gpu_{slug}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]) if rows else ["model"])

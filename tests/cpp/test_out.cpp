@@ -89,6 +89,38 @@ TEST(Out, VulkanIntoCallersArrays) {
   const MultiresFrame f = vm.deform(P);
   EXPECT_TRUE(bits_equal(X, f.vertices) && bits_equal(N, f.normals));
 }
+
+// The shared-pointer overload: the bits of the others; a held result keeps its values
+// through later frames and after the deformer is gone; memory let go of is used again.
+TEST(Out, VulkanSharedVertices) {
+  if (!out_have_device()) GTEST_SKIP() << "no suitable Vulkan device";
+  const TriMesh m = icosphere(3);
+  const Index n = m.V.rows();
+  const Lattice L = test::lattice_around(m.V, {6, 6, 6}, 3);
+  const RowMatrixX3d P = test::squashed(L, 0.7), Q = test::squashed(L, 1.2);
+  auto view = [&](const std::shared_ptr<const double>& p) { return RowMatrixX3d(Eigen::Map<const RowMatrixX3d>(p.get(), n, 3)); };
+  std::shared_ptr<const double> held[5];
+  RowMatrixX3d refP, refQ;
+  {
+    vulkan::VulkanDeformer d(m.V, m.F, L);
+    CorrectionOptions o;
+    refP = d.deform(P, o).vertices;
+    refQ = d.deform(Q, o).vertices;
+    for (auto& h : held) EXPECT_EQ(d.deform(P, o, &h).vertices.rows(), 0);  // more than the pool keeps
+    for (const auto& h : held) EXPECT_TRUE(bits_equal(view(h), refP));
+    std::shared_ptr<const double> q;
+    for (int i = 0; i < 3; ++i) d.deform(Q, o, &q);
+    EXPECT_TRUE(bits_equal(view(q), refQ));
+    for (const auto& h : held) EXPECT_TRUE(bits_equal(view(h), refP));
+    const double* first = held[0].get();
+    held[0].reset();
+    std::shared_ptr<const double> again;
+    d.deform(Q, o, &again);
+    EXPECT_EQ(again.get(), first);  // pooled in both precisions
+    EXPECT_TRUE(bits_equal(view(again), refQ));
+  }
+  for (int i = 1; i < 5; ++i) EXPECT_TRUE(bits_equal(view(held[i]), refP));  // after the deformer
+}
 #endif
 
 }  // namespace out_test
