@@ -156,7 +156,8 @@ struct VulkanDeformer::Impl {
   RowMatrixX3d spare_rest;   // stage_rest's copy of the next rest positions (swapped in on success)
   // The rest volume (cone volume from the origin, as Deformer::rest_volume(true)) and,
   // with parts, each part's (the default targets): summed from `rest` on first use.
-  LazyRestVolumes rest_vols;
+  // Replaced, not reset, by a move (under frame_mutex, as every read).
+  std::shared_ptr<const Lazy<RestVolumes>> rest_vols = std::make_shared<Lazy<RestVolumes>>();
   bool moved = false;        // set_rest_vertices ran: `host` may lag behind (cpu_stale)
   bool cpu_stale = false;    // `host` is of an older rest mesh (synced_cpu() re-embeds it)
   std::mutex cpu_mutex;
@@ -415,7 +416,7 @@ struct VulkanDeformer::Impl {
                                 where);
   }
   const RestVolumes& rest_volumes() const {
-    return rest_vols.get([&] { return measure_rest(volumes_of_base ? base : rest_positions(), "rest_volume"); });
+    return rest_vols->get([&] { return measure_rest(volumes_of_base ? base : rest_positions(), "rest_volume"); });
   }
   const CorrectionOptions& plan_options(const CorrectionOptions& opt, CorrectionOptions& storage) const;
   void create_pipelines(const std::array<std::int32_t, 16>& spec);

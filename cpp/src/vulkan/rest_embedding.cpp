@@ -273,7 +273,7 @@ void VulkanDeformer::Impl::embed_rest(const Eigen::Ref<const RowMatrixX3d>& X, c
   }
   base.resize(0, 3);  // later offsets move from X
   volumes_of_base = false;
-  rest_vols.reset(std::move(vols), eager);
+  rest_vols = eager ? std::make_shared<Lazy<RestVolumes>>(std::move(vols)) : std::make_shared<Lazy<RestVolumes>>();
   normals_ready = false;  // the rest normals are of the old positions
 }
 
@@ -382,7 +382,7 @@ void VulkanDeformer::Impl::offset_rest(const Eigen::Ref<const RowMatrixX3d>& O, 
     // The base's volumes: rest_vols are already theirs (the base was the rest mesh).
     volumes_of_base = true;
   } else {
-    rest_vols.reset(std::move(vols), eager);
+    rest_vols = eager ? std::make_shared<Lazy<RestVolumes>>(std::move(vols)) : std::make_shared<Lazy<RestVolumes>>();
     volumes_of_base = false;
   }
   // Rest normals are unchanged by a translation (rest_normals.comp reads the base).
@@ -441,7 +441,10 @@ double VulkanDeformer::rest_volume(bool allow_open) const {
   return impl_->rest_volumes().total;
 }
 
-bool VulkanDeformer::rest_volume_known() const { return impl_->rest_vols.known(); }
+bool VulkanDeformer::rest_volume_known() const {
+  std::lock_guard<std::mutex> lock(impl_->frame_mutex);
+  return impl_->rest_vols->known();
+}
 
 double VulkanDeformer::rest_volume_of(const Eigen::Ref<const RowMatrixX3d>& X) const {
   VPFFD_CHECK(X.rows() == impl_->nv, "rest_volume_of: ", X.rows(), " vertices, the mesh has ", impl_->nv);

@@ -67,7 +67,7 @@ inline VertexFans permute_fans(const VertexFans& f, const std::vector<std::int32
 /// permute_fans for the padded layout, into `out` (its buffers reused when they have
 /// the size already): rows and tails relabelled (a row's padding, the vertex itself,
 /// becomes its new index, as padding it afresh would give). A Deformer's move
-/// relabels instead (relabelled_fans): its rows keep their vertices.
+/// relabels instead (relabel_fans_into): its rows keep their vertices.
 inline void permute_fans_into(const PaddedFans& f, const std::vector<std::int32_t>& from,
                               const std::vector<std::int32_t>& to, PaddedFans& out, int threads = 0) {
   out.width = f.width;
@@ -109,11 +109,6 @@ inline void relabel_fans_into(const PaddedFans& f, const std::vector<std::int32_
   });
 }
 
-inline PaddedFans relabelled_fans(const PaddedFans& f, const std::vector<std::int32_t>& to, int threads = 0) {
-  PaddedFans out;
-  relabel_fans_into(f, to, out, threads);
-  return out;
-}
 
 inline PaddedFans permute_fans(const PaddedFans& f, const std::vector<std::int32_t>& from,
                                const std::vector<std::int32_t>& to, int threads = 0) {

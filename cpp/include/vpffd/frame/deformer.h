@@ -179,10 +179,16 @@ class Deformer {
   /// first use after each change of the processing order: the CPU's volume-preserving
   /// frames of a closed mesh do not need them (the weights come from the fans), so a
   /// moving object's set_rest_vertices does not renumber them.
-  const RowMatrixX3i& processing_faces() const { return vpffd::processing_faces(*topo_, current()); }
+  const RowMatrixX3i& processing_faces() const {
+    const auto s = rest_state();  // held while it is built: a move may replace it meanwhile
+    return vpffd::processing_faces(*topo_, *s);
+  }
   /// Vertex -> faces lists of processing_faces(), built on first use (CPU frames use
   /// the vertex fans or rings instead).
-  const VertexFaces& processing_adjacency() const { return vpffd::processing_adjacency(*topo_, current()); }
+  const VertexFaces& processing_adjacency() const {
+    const auto s = rest_state();
+    return vpffd::processing_adjacency(*topo_, *s);
+  }
   const BasisTables& tables() const { return topo_->tables; }
   OutsidePolicy outside_policy() const { return topo_->policy; }
   /// Reference point of the volume sums (the lattice box centre).
@@ -367,7 +373,10 @@ class Deformer {
 
   /// The paper's N x F face matrix, built on first use after a move and kept. Its
   /// column j is face face_processing_order()[j] (the identity without parts).
-  const CsrMatrix& face_matrix(int threads = 0) const { return vpffd::face_matrix(*topo_, current(), threads); }
+  const CsrMatrix& face_matrix(int threads = 0) const {
+    const auto s = rest_state();
+    return vpffd::face_matrix(*topo_, *s, threads);
+  }
 
   /// Volume coefficients of `axis` (0, 1, 2) for the current vertices X (#V x 3)
   /// (for an open mesh: of the cone volume from origin()).

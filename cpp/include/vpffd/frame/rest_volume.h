@@ -25,7 +25,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <mutex>
 #include <vector>
 
 #include "vpffd/core/check.h"
@@ -91,38 +90,5 @@ inline RestVolumes measure_rest_volumes(const Eigen::Ref<const RowMatrixX3d>& V,
               V.cwiseAbs().maxCoeff(), "); scale the mesh to smaller units");
   return r;
 }
-
-/// RestVolumes summed on first use and kept until the rest mesh moves. Reads may
-/// come from several threads (frames and queries of one deformer); a move, which
-/// replaces what they read, may not run beside them (as for everything else a
-/// deformer keeps).
-class LazyRestVolumes {
- public:
-  /// The volumes, summed by measure() if not known yet.
-  template <class Measure>
-  const RestVolumes& get(Measure&& measure) const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!known_) {
-      value_ = measure();
-      known_ = true;
-    }
-    return value_;
-  }
-  /// Known volumes (summed eagerly), or none: the next get() sums them.
-  void reset(RestVolumes value, bool known) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    value_ = std::move(value);
-    known_ = known;
-  }
-  bool known() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return known_;
-  }
-
- private:
-  mutable std::mutex mutex_;
-  mutable bool known_ = false;
-  mutable RestVolumes value_;
-};
 
 }  // namespace vpffd
