@@ -1,7 +1,8 @@
 """Foot points and the fitted base on real scans: how many vertices have an exact foot
 point, how much the fit shortens the displacements, and whether large edits turn faces
-over, for the default decomposition and for the affine frames on the faired base (the
-representation before exact foot points).
+over, for the default decomposition, for the same without the lift of the displacements
+that are not height fields (``lift=False``), and for the affine frames on the faired base
+(the representation before exact foot points).
 
     .venv/bin/python bench/python/bench_foot_points.py [--meshes armadillo horse ...]
         [--out bench/results/<machine>/foot_points_<machine>.md]
@@ -50,7 +51,8 @@ def run(names, out: Path) -> None:
         edits = {k: f(lat.control_points) for k, f in EDITS.items()}
         jac = {k: plain.jacobians(P) for k, P in edits.items()}
         for label, kw in [("affine frames, faired base", dict(fit_rounds=0, foot_points="affine")),
-                          ("exact, fitted (default)", {})]:
+                          ("exact, fitted, no lift", dict(lift=False)),
+                          ("exact, fitted, lifted (default)", {})]:
             t0 = time.perf_counter()
             mr = vpffd.Multires(mesh, **kw)
             seconds = time.perf_counter() - t0
@@ -63,7 +65,7 @@ def run(names, out: Path) -> None:
                 angles.append(float(vpffd.normals.angles_deg(r.normals, own).mean()))
             exact = int(mr.exact.sum()) if mr.foot_point_mode == "exact" else 0
             rows.append((name, mesh.n_vertices, label, seconds, int(exact), mr.rms_displacement[0] / diag,
-                         mr.rms_displacement[-1] / diag, turned, angles))
+                         mr.rms_displacement[-1] / diag, mr.n_lifted, turned, angles))
             print(rows[-1], flush=True)
     load = os.getloadavg()
     lines = [
@@ -74,14 +76,15 @@ def run(names, out: Path) -> None:
         "8³ cubic lattice around each mesh, no volume correction, OpenMP frames. "
         "Turned: faces whose deformed normal points against cof(J) n0 of the plain FFD "
         "(which turns none in any of these edits). Normal error: mean angle between the "
-        "approximate normals and the rebuilt mesh's own area-weighted normals.",
+        "approximate normals and the rebuilt mesh's own area-weighted normals. Lifted: vertices "
+        "whose displacement is partly handed to the base deformation (`Multires.lift`).",
         "",
         "| mesh | vertices | decomposition | time s | exact foot points | RMS d / diag faired | "
-        "RMS d / diag final | turned: " + " / ".join(EDITS) + " | normal error ° |",
-        "|---|---:|---|---:|---:|---:|---:|---|---|",
+        "RMS d / diag final | lifted | turned: " + " / ".join(EDITS) + " | normal error ° |",
+        "|---|---:|---|---:|---:|---:|---:|---:|---|---|",
     ]
-    for name, nv, label, s, ex, d0, d1, turned, ang in rows:
-        lines.append(f"| {name} | {nv:,} | {label} | {s:.1f} | {ex:,} | {d0:.2e} | {d1:.2e} | "
+    for name, nv, label, s, ex, d0, d1, lifted, turned, ang in rows:
+        lines.append(f"| {name} | {nv:,} | {label} | {s:.1f} | {ex:,} | {d0:.2e} | {d1:.2e} | {lifted:,} | "
                      f"{' / '.join(str(t) for t in turned)} | {' / '.join(f'{a:.2f}' for a in ang)} |")
     lines.append("")
     from vpffd._files import write_text

@@ -262,9 +262,9 @@ class Multires:
     """
     Two-scale decomposition (base + displacements).
     """
-    bytes_per_vertex: typing.ClassVar[int] = 229
+    bytes_per_vertex: typing.ClassVar[int] = 237
     frame_bytes_per_vertex: typing.ClassVar[int] = 128
-    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], smoothing: typing.SupportsFloat | typing.SupportsIndex, threads: typing.SupportsInt | typing.SupportsIndex = 0, exact_foot_points: bool = True, fit_rounds: typing.SupportsInt | typing.SupportsIndex = 4, fairness: typing.SupportsFloat | typing.SupportsIndex = 100.0) -> None:
+    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], smoothing: typing.SupportsFloat | typing.SupportsIndex, threads: typing.SupportsInt | typing.SupportsIndex = 0, exact_foot_points: bool = True, fit_rounds: typing.SupportsInt | typing.SupportsIndex = 4, fairness: typing.SupportsFloat | typing.SupportsIndex = 100.0, lift: bool = True) -> None:
         ...
     @property
     def base(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:
@@ -289,6 +289,12 @@ class Multires:
         ...
     @property
     def foot_uv(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def lift(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
+    @property
+    def lifted_count(self) -> int:
         ...
     @property
     def normal_coefficients(self) -> numpy.typing.NDArray[numpy.float64]:

@@ -45,7 +45,7 @@ def test_decomposition_is_reported(mr_sphere, sphere):
     assert mr.displacements.shape == (sphere.n_vertices,) and mr.residuals.shape == (sphere.n_vertices,)
     assert np.abs(mr.displacements).max() > 1e-2  # the bumps are details, not base
     assert (mr.residuals >= 0).all() and 0 <= mr.extrapolated_fraction <= 1
-    assert mr.bytes_per_vertex == 229 and mr.frame_bytes_per_vertex == 128
+    assert mr.bytes_per_vertex == 237 and mr.frame_bytes_per_vertex == 128
     text = repr(mr)
     assert "foot points" in text and "fitted" in text
     # Eq. 1 in the affine frame of the foot triangle reproduces each vertex.

@@ -63,7 +63,9 @@ def _check_eq1(mr, tol):
     ex = mr.exact
     assert (w[ex] >= -1e-9).all(), "an exact foot point outside its triangle"
     assert tangential[ex].max() <= tol * _diag(mr.mesh.vertices)
-    np.testing.assert_allclose(mr.displacements[ex], (r * N).sum(1)[ex], rtol=0, atol=tol * _diag(mr.mesh.vertices))
+    # A lifted vertex keeps (1 - w) of its displacement (the rest goes to the base map).
+    np.testing.assert_allclose(mr.displacements[ex], ((1 - mr.lift) * (r * N).sum(1))[ex], rtol=0,
+                               atol=tol * _diag(mr.mesh.vertices))
     return tangential
 
 
@@ -152,7 +154,7 @@ EDITS = {
     "bend45": lambda P: vpffd.bend(P, 45),
     "squash60": lambda P: vpffd.squash(P, 0.6),
 }
-SCANS = ["armadillo.ply", "horse.ply", "bunny_watertight.ply"]
+SCANS = ["armadillo.ply", "horse.ply", "bunny_watertight.ply", "dragon_vrip_welded.ply.gz"]
 
 
 @pytest.fixture(scope="module", params=SCANS)
@@ -165,8 +167,9 @@ def scan(request, shared_meshes):
 def test_scan_foot_points(scan):
     name, mesh, lat, mr, _ = scan
     tangential = _check_eq1(mr, FOOT)
-    # Vertices with no exact foot point are few and reported with their miss.
-    assert mr.n_unresolved <= 0.001 * mesh.n_vertices, repr(mr)
+    # Vertices with no exact foot point are few and reported with their miss: 0 to 3
+    # on the armadillo, horse and bunny, 503 of 435,545 (0.12 %) on the noisy dragon.
+    assert mr.n_unresolved <= 0.002 * mesh.n_vertices, repr(mr)
     np.testing.assert_allclose(mr.residuals[mr.unresolved], tangential[mr.unresolved], rtol=1e-9,
                                atol=FOOT * _diag(mesh.vertices))
     assert mr.rms_displacement[-1] < 0.3 * mr.rms_displacement[0]
@@ -188,6 +191,72 @@ def test_scan_edits_turn_no_face(scan, edit, backend):
     # Approximate normals (eqs. 6-7) against the rebuilt mesh's own normals.
     err = angles_deg(r.normals, vertex_normals((r.vertices, mesh.faces)))
     assert err.mean() <= 2.0, f"{name} {edit}: mean {err.mean():.2f} deg"
+
+
+def test_scan_lift_is_local(scan):
+    """The lift touches only vertices of faces that are not height fields over their
+    foot triangles: 0.5 % (bunny) to 4.6 % (dragon) of a scan's vertices."""
+    name, mesh, _, mr, _ = scan
+    assert mr.n_lifted <= 0.06 * mesh.n_vertices, repr(mr)
+    assert ((mr.lift >= 0) & (mr.lift <= 1)).all()
+    assert mr.n_lifted == int((mr.lift > 0).sum())
+
+
+def test_without_the_lift_the_dragon_turns_faces(shared_meshes):
+    """The failure the lift removes: the dragon's slivers and out-of-order foot
+    points turn faces over under a 90 degree twist when every displacement is kept.
+    (If this stops failing, the scan tests above no longer show the lift works.)"""
+    mesh = vpffd.load_mesh(shared_meshes / "dragon_vrip_welded.ply.gz")
+    lat = vpffd.Lattice.around(mesh, shape=8)
+    P = EDITS["twist90"](lat.control_points)
+    J = vpffd.Deformer(mesh, lat).jacobians(P)
+    kept = vpffd.Multires(mesh, lift=False)
+    assert kept.n_lifted == 0
+    r = vpffd.MultiresDeformer(kept, lat, backend="openmp").deform(P, preserve_volume=False)
+    assert turned_faces(mesh.vertices, r.vertices, mesh.faces, J) > 10
+
+
+def slivered_sphere(n=60, toward=0.97, offset=0.3, seed=7):
+    """A bumpy sphere with n cap slivers: one corner of n faces moved to within 3 % of
+    its opposite edge and off the surface by 0.3 edge lengths (a scan's noise)."""
+    m = vpffd.shapes.bumpy_sphere(4)
+    V, F = m.vertices.copy(), m.faces
+    rng = np.random.default_rng(seed)
+    nrm = vertex_normals(m)
+    e = np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1).mean()
+    used = np.zeros(len(V), bool)
+    for f in rng.permutation(len(F)):
+        if used[F[f]].any():
+            continue
+        a, b, c = F[f]
+        V[a] += toward * (0.5 * (V[b] + V[c]) - V[a]) + offset * e * rng.choice([-1, 1]) * nrm[a]
+        used[F[f]] = True
+        n -= 1
+        if n == 0:
+            break
+    return vpffd.Mesh(V, F)
+
+
+def test_lifted_vertices_keep_identity_and_rigid_motions_exact():
+    mesh = slivered_sphere()
+    mr, kept = vpffd.Multires(mesh), vpffd.Multires(mesh, lift=False)
+    assert mr.n_lifted > 0 and kept.n_lifted == 0 and not kept.lift.any()
+    assert "lifted" in repr(mr) and "lifted" not in repr(kept)
+    # Only the displacements (and the foot points with them) change: d' = (1 - w) d.
+    np.testing.assert_allclose(mr.displacements, (1 - mr.lift) * kept.displacements, rtol=0,
+                               atol=1e-15 * _diag(mesh.vertices))
+    assert (mr.lift[mr.displacements == kept.displacements] == 0).all()
+    lat = vpffd.Lattice.around(mesh, shape=6)
+    md = vpffd.MultiresDeformer(mr, lat, backend="serial")
+    r = md.deform(lat.control_points, preserve_volume=False)
+    assert np.abs(r.vertices - mesh.vertices).max() <= EXACT * _diag(mesh.vertices)
+    c, s = np.cos(0.7), np.sin(0.7)
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+    t = np.array([0.3, -0.2, 0.5])
+    r = md.deform(lat.control_points @ R.T + t, preserve_volume=False)
+    assert np.abs(r.vertices - (mesh.vertices @ R.T + t)).max() <= EXACT * _diag(mesh.vertices)
+    with pytest.raises(vpffd.InvalidInputError, match="lift"):
+        vpffd.Multires(mesh, lift="yes")
 
 
 def test_affine_foot_points_turn_faces_on_the_armadillo(shared_meshes):

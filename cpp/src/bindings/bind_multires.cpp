@@ -47,12 +47,18 @@ auto frame_method(void (MultiresFFD::*method)(const Eigen::Ref<const RowMatrixX3
 
 void bind_multires(py::module_& m) {
   py::class_<Multires, std::shared_ptr<Multires>>(m, "Multires", "Two-scale decomposition (base + displacements).")
-      .def(py::init([](RefV V, RefF F, double smoothing, int threads, bool exact, int fit_rounds, double fairness) {
+      .def(py::init([](RefV V, RefF F, double smoothing, int threads, bool exact, int fit_rounds, double fairness,
+                       bool lift) {
              py::gil_scoped_release release;
-             return std::make_shared<Multires>(decompose(V, F, smoothing, threads, exact, fit_rounds, fairness));
+             return std::make_shared<Multires>(decompose(V, F, smoothing, threads, exact, fit_rounds, fairness, lift));
            }),
            py::arg("vertices"), py::arg("faces"), py::arg("smoothing"), py::arg("threads") = 0,
-           py::arg("exact_foot_points") = true, py::arg("fit_rounds") = 4, py::arg("fairness") = 100.0)
+           py::arg("exact_foot_points") = true, py::arg("fit_rounds") = 4, py::arg("fairness") = 100.0,
+           py::arg("lift") = true)
+      .def_property_readonly("lift", [](const Multires& r) {
+        return r.lift.empty() ? vec(std::vector<double>(static_cast<size_t>(r.n_vertices()), 0.0)) : vec(r.lift);
+      })
+      .def_property_readonly("lifted_count", &Multires::lifted_count)
       .def_readonly("rms_displacement", &Multires::rms_displacement)
       .def_readonly("fairness", &Multires::fairness)
       .def_readonly("base", &Multires::base)

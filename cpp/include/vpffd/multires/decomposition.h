@@ -20,6 +20,7 @@
 #include "vpffd/multires/fairing.h"
 #include "vpffd/multires/fitting.h"
 #include "vpffd/multires/foot_points.h"
+#include "vpffd/multires/lift.h"
 #include "vpffd/multires/normal_coefficients.h"
 
 namespace vpffd {
@@ -46,22 +47,32 @@ struct Multires {
   // Foot-point bookkeeping (not read by a frame).
   std::vector<std::int32_t> face;  ///< base triangle of each vertex
   std::vector<double> u, v;        ///< affine coordinates in it
-  std::vector<double> residual;    ///< world units: tangential residual of an exact foot point
-                                   ///< (rounding), else the affine foot point's distance outside
-                                   ///< its triangle (foot_points.h)
+  std::vector<double> residual;    ///< world units: how far p - S(u, v) misses the interpolated
+                                   ///< normal N_S(u, v) (rounding where exact); with affine foot
+                                   ///< points, the foot point's distance outside its triangle
   std::vector<std::uint8_t> exact; ///< 1 where the foot point is exact (eq. 1)
+  /// Fraction w of each exact displacement handed to the base deformation (lift.h):
+  /// d above is (1 - w) times the displacement from the foot point, which is lifted
+  /// by w d along N_S. Empty when not lifted.
+  std::vector<double> lift;
 
   Index n_vertices() const { return fine.rows(); }
   /// Bytes one frame reads per vertex (the SoA arrays above): 128.
   static constexpr int frame_bytes_per_vertex = 16 * sizeof(double);
-  /// Per-vertex data kept: frame data, foot bookkeeping (4 + 1 + 3 x 8 bytes), and
-  /// the fine, base and rest-normal rows (9 doubles): 128 + 29 + 72 = 229 bytes.
+  /// Per-vertex data kept: frame data, foot bookkeeping (4 + 1 + 4 x 8 bytes), and
+  /// the fine, base and rest-normal rows (9 doubles): 128 + 37 + 72 = 237 bytes.
   static constexpr int bytes_per_vertex = frame_bytes_per_vertex + sizeof(std::int32_t) + sizeof(std::uint8_t) +
-                                          3 * sizeof(double) + 9 * sizeof(double);
+                                          4 * sizeof(double) + 9 * sizeof(double);
   /// Vertices with no exact foot point (kept in the affine frame of a triangle).
   Index unresolved_count() const {
     Index n = 0;
     for (std::uint8_t e : exact) n += e == 0;
+    return n;
+  }
+  /// Vertices whose displacement is partly lifted (lift > 0).
+  Index lifted_count() const {
+    Index n = 0;
+    for (double w : lift) n += w > 0;
     return n;
   }
   /// Fraction of the vertices with no exact foot point.
@@ -138,6 +149,7 @@ inline void set_foot_points(Multires& m, bool exact_foot_points, int threads = 0
       Vector3d sv = m.base.row(F(f.face, 2)).transpose() - s0;
       const bool exact = f.exact && f.residual <= tol;
       const Vector3d p = m.fine.row(i);
+      double residual = f.residual;
       Vector3d foot;
       double d;
       if (exact || !exact_foot_points) {
@@ -151,6 +163,13 @@ inline void set_foot_points(Multires& m, bool exact_foot_points, int threads = 0
         su -= su.dot(f.normal) * f.normal;
         sv -= sv.dot(f.normal) * f.normal;
       } else {
+        // The residual reported is the documented one whichever fallback gave the
+        // foot point: how far p - S(u, v) misses the interpolated normal there.
+        const Vector3d n0 = NS.row(F(f.face, 0)), n1 = NS.row(F(f.face, 1)), n2 = NS.row(F(f.face, 2));
+        const Vector3d nt = n0 + f.u * (n1 - n0) + f.v * (n2 - n0);
+        const Vector3d r = p - (s0 + f.u * su + f.v * sv);
+        // (An extrapolated affine parameter can cancel the normals: then all of r misses.)
+        residual = nt.norm() > 0 ? (r - r.dot(nt.normalized()) * nt.normalized()).norm() : r.norm();
         // No exact foot point: the vertex is its own foot point (d = 0) in the
         // tangent plane of its own normal, so a frame moves it by the base
         // deformation itself (an FFD: D(p), normal cof(J) n). Its neighbours' short
@@ -172,10 +191,26 @@ inline void set_foot_points(Multires& m, bool exact_foot_points, int threads = 0
       m.face[i] = f.face;
       m.u[i] = f.u;
       m.v[i] = f.v;
-      m.residual[i] = f.residual;
+      m.residual[i] = residual;
       m.exact[i] = exact ? 1 : 0;
     }
   });
+}
+
+/// Shortens the displacements that a shear would turn over (lift.h): d becomes
+/// (1 - w) d and the stored foot point p - d N_S moves with it, so identity and rigid
+/// motions still rebuild every vertex exactly.
+inline void lift_displacements(Multires& m, int threads = 0) {
+  const Index n = m.n_vertices();
+  RowMatrixX3d NS(n, 3);
+  for (Index i = 0; i < n; ++i) NS.row(i) = m.tangent_u(i).cross(m.tangent_v(i)).normalized().transpose();
+  m.lift = lift_fractions(m.fine, m.faces, NS, m.d, threads);
+  for (Index i = 0; i < n; ++i) {
+    if (!(m.lift[i] > 0)) continue;
+    const double delta = (1.0 - m.lift[i]) * m.d[i];
+    for (int a = 0; a < 3; ++a) m.foot[a][i] = m.fine(i, a) - delta * NS(i, a);
+    m.d[i] = delta;
+  }
 }
 
 /// Decomposes (V, F): base S = fair_mesh(V, F, smoothing), foot points, frame data.
@@ -187,9 +222,11 @@ inline void set_foot_points(Multires& m, bool exact_foot_points, int threads = 0
 ///               for every vertex
 /// @throws InvalidInputError for a bad mesh or smoothing, a vertex in no triangle,
 ///         a vertex whose area-weighted normal vanishes, or a failed foot-point search
+/// @param[in] lift  shorten the displacements that a shear would turn over
+///               (lift_displacements; exact foot points only)
 inline Multires decompose(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
                           double smoothing, int threads = 0, bool exact_foot_points = true, int fit_rounds = 4,
-                          double fairness = 100.0) {
+                          double fairness = 100.0, bool lift = true) {
   VPFFD_CHECK(fit_rounds >= 0 && fit_rounds <= 100, "Multires: fit rounds must be in 0..100, got ", fit_rounds);
   VPFFD_CHECK(std::isfinite(fairness) && fairness > 0, "Multires: fairness must be a positive number, got ",
               fairness);
@@ -216,6 +253,7 @@ inline Multires decompose(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::
       m.rms_displacement.push_back(detail::rms(m.d));
     }
   }
+  if (lift && exact_foot_points) lift_displacements(m, threads);
   return m;
 }
 
