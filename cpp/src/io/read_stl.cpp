@@ -137,7 +137,7 @@ void read_ascii_stl(const std::string& file, const std::string& shown, MeshData&
   auto L = [&]() { return at_line(in.number()); };
   // The current line must be `kw` followed by exactly `args` values.
   auto expect = [&](const char* kw, std::size_t args, const char* form) {
-    if (key.empty() && t.empty())
+    if (t.empty())
       fail(kWhat, shown, std::string("the file is truncated: it ends where '") + kw + "' was expected");
     if (key != kw) fail(kWhat, shown, L() + "expected '" + form + "', found " + quote(line));
     if (t.size() != 1 + args)
@@ -169,7 +169,9 @@ void read_ascii_stl(const std::string& file, const std::string& shown, MeshData&
       if (t.size() < 2 || lower(t[1]) != "normal" || t.size() != 5)
         fail(kWhat, shown, L() + "expected 'facet normal nx ny nz', found " + quote(line));
       double n[3];
-      three("facet normal", false, n);  // parsed for the check, then recomputed by whoever needs it
+      // Parsed so that a malformed number is refused, then not kept: stored facet
+      // normals are often zero or stale, and a vertex mesh has no use for them.
+      three("facet normal", false, n);
       step();
       if (key != "outer" || t.size() != 2 || lower(t[1]) != "loop") {
         if (t.empty()) fail(kWhat, shown, "the file is truncated: it ends where 'outer loop' was expected");
