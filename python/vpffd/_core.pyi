@@ -794,7 +794,7 @@ def vulkan_devices() -> tuple[list, str]:
     """
 def write_mesh(path: str, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], normals: typing.Annotated[numpy.typing.ArrayLike, numpy.float64, "[m, 3]"] | None = None, binary: typing.SupportsInt | typing.SupportsIndex = -1, precision: typing.SupportsInt | typing.SupportsIndex = 17) -> dict:
     """
-    Writes a mesh file; binary -1 = the format's default. Returns split_faces, dropped_faces, vertices_written. Raises MeshIOError.
+    Writes a mesh file; binary -1 = the format's default. Returns split_faces and dropped_faces (non-zero only for .om, whose halfedge structure cannot hold every mesh as given) and vertices_written. Raises MeshIOError; BackendUnavailableError for .om in a build without OpenMesh.
     """
 __version__: str = '0.1.0'
 has_embree: bool = True

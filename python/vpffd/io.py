@@ -1,5 +1,5 @@
-"""Mesh files (C++: vpffd's own readers for OBJ, OFF, PLY and OM, OpenMesh's for STL
-and its writers for every format, Debian's libopenmesh-dev).
+"""Mesh files (C++: vpffd's own readers for every format and writers for all but OM;
+OpenMesh, Debian's libopenmesh-dev, writes OM).
 
 Writes never lose a file: the new one is written to a temporary file in the same
 folder, every write checked, flushed to the disk and only then renamed over the old
@@ -26,8 +26,9 @@ BackendUnavailableError = _core.BackendUnavailableError
 
 _log = logging.getLogger(__name__)
 
-#: Extensions load_mesh and save_mesh accept (empty when the build has no OpenMesh).
-FORMATS = tuple(_core.mesh_formats()) if _core.has_openmesh else ()
+#: Extensions load_mesh and save_mesh accept (empty when the build has no mesh file
+#: I/O; without OpenMesh, save_mesh refuses ``.om``).
+FORMATS = tuple(_core.mesh_formats()) if _core.has_mesh_io else ()
 
 
 def _path(path, where: str) -> bytes:
@@ -56,11 +57,15 @@ def _require_mesh_io(where: str) -> None:
                                       "at build time; Debian/Ubuntu: apt-get install zlib1g-dev, then rebuild)")
 
 
-def _require_openmesh(where: str) -> None:
-    if not _core.has_openmesh:
-        raise BackendUnavailableError(f"{where}: this build of vpffd writes no mesh files (OpenMesh was not found "
+def _require_writer(path, where: str) -> None:
+    """Refuses, before any work, a file this build cannot write: none without mesh
+    file I/O, ``.om`` without OpenMesh (which writes OM's halfedge connectivity)."""
+    _require_mesh_io(where)
+    if not _core.has_openmesh and os.fsdecode(path).lower().endswith(".om"):
+        raise BackendUnavailableError(f"{where}: this build of vpffd writes no .om files (OpenMesh was not found "
                                       "at build time; Debian/Ubuntu: apt-get install libopenmesh-dev, then "
-                                      "rebuild); it reads .obj, .off, .ply and .om without it")
+                                      "rebuild); it writes .obj, .off, .ply and .stl and reads every format "
+                                      "without it")
 
 
 def load_mesh(path, orient: bool = False, return_normals: bool = False):
@@ -111,7 +116,7 @@ def load_mesh(path, orient: bool = False, return_normals: bool = False):
         ``path`` is not a file name.
     """
     p = _path(path, "load_mesh")
-    _require_mesh_io("load_mesh")  # STL without OpenMesh: C++ refuses, naming the package
+    _require_mesh_io("load_mesh")
     t0 = time.perf_counter()
     try:
         d = _core.read_mesh(p)
@@ -144,21 +149,29 @@ def save_mesh(path, mesh, normals=None, binary=None, precision: int = 17) -> Non
         ``.obj``, ``.off``, ``.ply``, ``.stl`` or ``.om`` (no ``.gz``).
     mesh : Mesh, (vertices, faces) pair, or any object with vertices and faces
     normals : (V, 3) array_like, optional
-        vertex normals to store (OBJ, OFF, PLY, OM; STL stores face normals only).
+        vertex normals to store (OBJ, OFF, PLY, OM; STL stores the normal of each
+        triangle, computed from its corners, instead).
     binary : bool, optional
         default: binary for PLY, STL and OM, ASCII for OBJ and OFF.
     precision : int
-        significant digits of ASCII coordinates, 1..17. OpenMesh's OBJ, OFF, PLY
-        and STL writers store float32 coordinates (relative error ~6e-8, so a
-        deformed mesh's volume changes by ~1e-7 relative); OM stores float64
-        exactly: use .om to keep an exactly preserved volume.
+        significant digits of ASCII numbers, 1..17. 17 (the default) writes the
+        shortest text that reads back to the very same float64, so ASCII OBJ, OFF,
+        PLY and STL files round-trip exactly. Binary PLY and OM store float64
+        (exact); binary STL stores float32 by the format's definition, and so does
+        binary OFF (relative error ~6e-8, a deformed mesh's volume changes by ~1e-7
+        relative).
+
+    Every face is written as given, non-manifold ones and faces with a repeated
+    corner included, except in ``.om`` files (below). STL has no shared vertices:
+    reading it back merges vertices at equal positions and loses vertices no face
+    uses.
 
     Warns
     -----
     UserWarning
-        when OpenMesh's halfedge structure cannot hold the mesh as is: non-manifold
-        faces are written with their own copies of their vertices, faces with a
-        repeated vertex index are dropped.
+        for ``.om`` only, when OpenMesh's halfedge structure (which OM stores)
+        cannot hold the mesh as is: non-manifold faces are written with their own
+        copies of their vertices, faces with a repeated vertex index are dropped.
 
     Raises
     ------
@@ -169,13 +182,15 @@ def save_mesh(path, mesh, normals=None, binary=None, precision: int = 17) -> Non
         operating system's error; an existing file is left byte for byte as it was
         and no temporary file remains.
     vpffd.InvalidInputError
-        bad normals (shape, NaN), ``binary=True`` for OBJ, non-finite coordinates
-        (naming the vertex), coordinates beyond float32's range (3.4e38) for the
-        formats that store float32 (all but ``.om``).
+        bad normals (shape, NaN), ``binary=True`` for OBJ, ``binary=False`` for
+        OM, non-finite coordinates (naming the vertex), coordinates beyond
+        float32's range (3.4e38) for binary OFF and STL.
+    vpffd.BackendUnavailableError
+        ``.om`` in a build without OpenMesh.
     """
     p = _path(path, "save_mesh")
     m = Mesh.from_any(mesh)
-    _require_openmesh("save_mesh")
+    _require_writer(p, "save_mesh")
     N = None
     if normals is not None:
         from . import _arrays

@@ -23,7 +23,7 @@ KINDS = ("obj", "off", "off_binary", "ply_ascii", "ply_le", "ply_be", "stl_ascii
 # mark. Files of the last two are valid: their names carry ".valid.", and the worker
 # counts a refusal as a finding.
 STRATEGIES = ("truncated", "ply_types", "bom")
-TEXT_KINDS = ("obj", "off", "ply_ascii")  # the text formats vpffd reads itself
+TEXT_KINDS = ("obj", "off", "ply_ascii", "stl_ascii")  # the text formats (a UTF-8 byte-order mark must not matter)
 PLY_CODES = {"char": "b", "uchar": "B", "short": "h", "ushort": "H", "int": "i", "uint": "I", "float": "f",
              "double": "d", "int8": "b", "uint8": "B", "int16": "h", "uint16": "H", "int32": "i", "uint32": "I",
              "float32": "f", "float64": "d"}

@@ -137,16 +137,27 @@ def test_a_link_stays_a_link_and_permissions_stay(tmp_path):
     _only(tmp_path, "real.ply", "link.ply")
 
 
-@needs_openmesh
-def test_float32_overflow_is_refused_and_om_keeps_it(tmp_path):
+@pytest.mark.skipif(not vpffd._core.has_mesh_io, reason="built without mesh file I/O")
+def test_float32_overflow_is_refused_where_float32_is_stored(tmp_path):
+    # Only binary STL and binary OFF store float32 (OpenMesh's writers, used before,
+    # stored float32 in every format but OM, which refused all four); ASCII files,
+    # PLY and OM keep float64 and so the coordinates, exactly.
     m = shapes.icosphere(1)
     big = vpffd.Mesh(m.vertices * 1e39, m.faces)
-    for ext in ("ply", "obj", "off", "stl"):
-        with pytest.raises(vpffd.InvalidInputError, match="vertex 0 .*float32.*save as .om"):
-            vpffd.save_mesh(tmp_path / f"big.{ext}", big)
-    vpffd.save_mesh(tmp_path / "big.om", big)
-    assert np.array_equal(vpffd.load_mesh(tmp_path / "big.om").vertices, big.vertices)
-    _only(tmp_path, "big.om")
+    for ext, binary in (("stl", None), ("stl", True), ("off", True)):
+        with pytest.raises(vpffd.InvalidInputError, match=rf"vertex 0 .*float32.*binary \.{ext}.*save as ASCII"):
+            vpffd.save_mesh(tmp_path / f"big.{ext}", big, binary=binary)
+    names = []
+    for ext, binary in (("ply", None), ("ply", False), ("obj", None), ("off", None), ("stl", False)) + (
+            (("om", None),) if vpffd._core.has_openmesh else ()):
+        names.append(f"big_{binary}.{ext}")
+        vpffd.save_mesh(tmp_path / names[-1], big, binary=binary)
+        back = vpffd.load_mesh(tmp_path / names[-1])
+        if ext == "stl":
+            assert np.array_equal(back.vertices[back.faces], big.vertices[big.faces])
+        else:
+            assert np.array_equal(back.vertices, big.vertices)
+    _only(tmp_path, *names)
 
 
 def test_replaced_path_keeps_the_old_file_when_the_writer_fails(tmp_path):

@@ -11,7 +11,7 @@ from vpffd import folds
 from vpffd.cli.main import main
 
 needs_render = pytest.mark.skipif(not vpffd._core.has_embree, reason="no Embree in this build")
-needs_io = pytest.mark.skipif(not vpffd._core.has_openmesh, reason="no mesh file I/O in this build")
+needs_io = pytest.mark.skipif(not vpffd._core.has_mesh_io, reason="no mesh file I/O in this build")
 
 
 # --- one fold verdict ------------------------------------------------------------------

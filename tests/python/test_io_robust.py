@@ -14,7 +14,8 @@ import pytest
 
 import vpffd
 
-pytestmark = pytest.mark.skipif(not vpffd._core.has_openmesh, reason="built without OpenMesh")
+pytestmark = pytest.mark.skipif(not vpffd._core.has_mesh_io, reason="built without mesh file I/O")
+needs_openmesh = pytest.mark.skipif(not vpffd._core.has_openmesh, reason="writing .om needs OpenMesh")
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fuzz"))
 import seeds  # noqa: E402  (tests/fuzz: the fuzzer's seed builders)
@@ -107,6 +108,7 @@ def test_om_position_chunk_with_wrong_dimension(tmp_path):
     expect_error(p, "3 float32 or float64")
 
 
+@needs_openmesh
 def test_om_face_halfedge_out_of_range(tmp_path):
     # read_mesh walked OpenMesh's face loops and segfaulted on this.
     data = om_writer_file(tmp_path)
@@ -117,6 +119,7 @@ def test_om_face_halfedge_out_of_range(tmp_path):
     expect_error(p, "corrupt topology")
 
 
+@needs_openmesh
 def test_om_next_halfedge_cycle_is_refused(tmp_path):
     # A `next` pointing to itself: a face loop that never closes at its start.
     data = om_writer_file(tmp_path)
@@ -140,6 +143,7 @@ def test_om_huge_counts_are_refused_before_allocating(tmp_path, field):
     expect_error(p, as_mb=256)
 
 
+@needs_openmesh
 def test_om_round_trip_both_versions(tmp_path):
     for name, data in [("v1.om", seeds.om_v1(seeds.CUBE_V, seeds.CUBE_F)),
                        ("v1d.om", seeds.om_v1(seeds.TET_V, seeds.TET_F, double=True))]:

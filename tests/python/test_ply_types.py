@@ -9,7 +9,7 @@ import pytest
 
 import vpffd
 
-pytestmark = pytest.mark.skipif(not vpffd._core.has_openmesh, reason="built without OpenMesh")
+pytestmark = pytest.mark.skipif(not vpffd._core.has_mesh_io, reason="built without mesh file I/O")
 
 CODE = {"char": "b", "uchar": "B", "short": "h", "ushort": "H", "int": "i", "uint": "I", "float": "f",
         "double": "d", "int8": "b", "uint8": "B", "int16": "h", "uint16": "H", "int32": "i", "uint32": "I",

@@ -67,11 +67,14 @@ PROBE = textwrap.dedent('''
     quad = vpffd.load_mesh(os.path.join(d, "quad.obj"))
     out["ply"] = [tet.n_vertices, tet.n_faces, tet.volume]
     out["obj"] = [quad.n_vertices, quad.n_faces]
-    # OpenMesh: STL written and read back
+    # STL written and read back (vpffd's own code); OM through the bundled OpenMesh
     stl = os.path.join(d, "deformed.stl")
     vpffd.save_mesh(stl, r)
     back = vpffd.load_mesh(stl)
     out["stl"] = [back.n_vertices, back.n_faces, abs(back.volume - r.volume) / r.volume]
+    om = os.path.join(d, "deformed.om")
+    vpffd.save_mesh(om, r)
+    out["om"] = bool(vpffd.load_mesh(om).vertices.tobytes() == r.vertices.tobytes())
     # Embree: a picture
     png = os.path.join(d, "deformed.png")
     vpffd.save_png(png, vpffd.render(r, size=(64, 48)))
@@ -123,7 +126,8 @@ def _check_probe(out: dict, site: Path) -> None:
     assert out["volume_error"] < 1e-10 and out["moved"] > 0.05
     assert out["ply"][:2] == [4, 4] and abs(out["ply"][2] - 1 / 6) < 1e-12
     assert out["obj"] == [4, 2]
-    assert out["stl"][1] == 1280 and out["stl"][2] < 1e-5  # float32 coordinates in STL
+    assert out["stl"][1] == 1280 and out["stl"][2] < 1e-5  # float32 coordinates in binary STL
+    assert out["om"]
     assert out["png"][0][:2] == [48, 64] and out["png"][1] > 100  # the mesh covers pixels
     libs = (site / "vpffd.libs").resolve()
     for name in BUNDLED:

@@ -1,4 +1,4 @@
-// Mesh files (vpffd::io, OpenMesh). The Python layer (vpffd/io.py) builds Mesh
+// Mesh files (vpffd::io; OpenMesh for writing .om only). The Python layer (vpffd/io.py) builds Mesh
 // objects from these arrays.
 
 #include "common.h"
@@ -50,8 +50,9 @@ void bind_io(py::module_& m) {
       },
       py::arg("path"), py::arg("vertices"), py::arg("faces"), py::arg("normals") = py::none(),
       py::arg("binary") = -1, py::arg("precision") = 17,
-      "Writes a mesh file; binary -1 = the format's default. Returns split_faces, dropped_faces, "
-      "vertices_written. Raises MeshIOError.");
+      "Writes a mesh file; binary -1 = the format's default. Returns split_faces and dropped_faces (non-zero "
+      "only for .om, whose halfedge structure cannot hold every mesh as given) and vertices_written. Raises "
+      "MeshIOError; BackendUnavailableError for .om in a build without OpenMesh.");
   m.def("mesh_formats", &mesh_formats, "File extensions read_mesh/write_mesh accept.");
 }
 

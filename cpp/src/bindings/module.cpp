@@ -40,7 +40,8 @@ PYBIND11_MODULE(_core, m) {
 #else
   m.attr("has_mesh_io") = false;
 #endif
-  // Without OpenMesh, vpffd's own readers still take OBJ, OFF, PLY and OM.
+  // has_openmesh: .om files can be written; every other format is read and
+  // written, and .om read, without OpenMesh.
 #ifdef VPFFD_HAS_OPENMESH
   m.attr("has_openmesh") = true;
 #else

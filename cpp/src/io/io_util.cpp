@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <charconv>
 #include <limits>
 
 namespace vpffd::io_detail {
@@ -190,6 +191,38 @@ std::uint64_t times(std::uint64_t count, std::uint64_t each) {
   if (each != 0 && count > std::numeric_limits<std::uint64_t>::max() / each)
     return std::numeric_limits<std::uint64_t>::max();
   return count * each;
+}
+
+void put_real(std::string& s, double v, int precision) {
+  char buf[64];
+  const auto r = precision >= 17 ? std::to_chars(buf, buf + sizeof buf, v)
+                                 : std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, precision);
+  s.append(buf, r.ptr);
+}
+
+void put_int(std::string& s, long long v) {
+  char buf[24];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  s.append(buf, r.ptr);
+}
+
+namespace {
+void put_le(std::string& s, std::uint64_t v, int bytes) {
+  for (int k = 0; k < bytes; ++k) s += static_cast<char>((v >> (8 * k)) & 0xFF);
+}
+}  // namespace
+
+void put_u16le(std::string& s, std::uint16_t v) { put_le(s, v, 2); }
+void put_u32le(std::string& s, std::uint32_t v) { put_le(s, v, 4); }
+void put_f32le(std::string& s, float v) {
+  std::uint32_t u = 0;
+  std::memcpy(&u, &v, 4);
+  put_le(s, u, 4);
+}
+void put_f64le(std::string& s, double v) {
+  std::uint64_t u = 0;
+  std::memcpy(&u, &v, 8);
+  put_le(s, u, 8);
 }
 
 }  // namespace vpffd::io_detail

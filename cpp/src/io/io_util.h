@@ -1,8 +1,9 @@
 #pragma once
-// Helpers shared by the readers of cpp/src/io (internal; not installed): error
-// messages that are always valid UTF-8, tokenising text lines, whole-token
-// number parsing, a bounded little/big-endian byte reader, and the memory
-// check every reader applies to the counts a header announces.
+// Helpers shared by the readers and writers of cpp/src/io (internal; not
+// installed): error messages that are always valid UTF-8, tokenising text lines,
+// whole-token number parsing, a bounded little/big-endian byte reader, the memory
+// check every reader applies to the counts a header announces, and the
+// locale-independent number formatting of the writers.
 
 #include <cstdint>
 #include <fstream>
@@ -88,5 +89,16 @@ std::vector<unsigned char> read_all(const std::string& file, const std::string& 
 /// `need` is the least number of bytes `count` elements take in this encoding,
 /// computed without overflow by the caller's helper below.
 std::uint64_t times(std::uint64_t count, std::uint64_t each);  // saturates at UINT64_MAX
+
+/// Appends `v` as decimal text, whatever the C locale: precision 17 writes the
+/// shortest text that reads back to exactly `v` (never more than 17 significant
+/// digits), 1..16 writes printf's "%.{precision}g".
+void put_real(std::string& s, double v, int precision);
+void put_int(std::string& s, long long v);
+/// Appends the little-endian bytes of a value, whatever the host's byte order.
+void put_u16le(std::string& s, std::uint16_t v);
+void put_u32le(std::string& s, std::uint32_t v);
+void put_f32le(std::string& s, float v);
+void put_f64le(std::string& s, double v);
 
 }  // namespace vpffd::io_detail

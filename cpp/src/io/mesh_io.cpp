@@ -10,13 +10,17 @@
 //   PLY   read by vpffd (read_ply.cpp): every scalar, count and index type the
 //         format names, ASCII and both byte orders; OpenMesh's reader took only a
 //         few count types and integer coordinates not at all.
-//   STL   checked by vpffd through the whole file (stl_checks.cpp: record layout,
-//         binary size), then read by OpenMesh, which merges equal positions.
+//   STL   read by vpffd, ASCII and binary (read_stl.cpp), the whole file checked;
+//         equal positions merged into one vertex, as STL has no shared vertices.
 //   .gz   decompressed by vpffd (gzip.cpp) to a temporary file with a size
 //         bound, then read as above.
-//   Writing: every format by OpenMesh into memory (openmesh_backend.cpp), then to
-//         the disk by replace_file (atomic_write.cpp): checked writes to a temporary
-//         file, fsync, rename over the target; a failure leaves the old file.
+//   Writing: OBJ, OFF, PLY and STL formatted by vpffd into memory (write_*.cpp),
+//         every face as given (no halfedge structure, so non-manifold meshes and
+//         repeated corners are written unchanged); OM by OpenMesh
+//         (openmesh_backend.cpp), the only part of vpffd::io that needs it. Then
+//         to the disk by replace_file (atomic_write.cpp): checked writes to a
+//         temporary file, fsync, rename over the target; a failure leaves the old
+//         file.
 // Nothing a reader returns is trusted: finish_mesh checks every face index
 // against the vertex count and every coordinate for finiteness, and std::bad_alloc
 // becomes a MeshIOError naming the file.
@@ -30,6 +34,7 @@
 #include <memory>
 #include <new>
 
+#include "atomic_write.h"
 #include "gzip.h"
 #include "io_util.h"
 #include "readers.h"
@@ -123,9 +128,7 @@ void read_any(const std::string& path, const std::string& shown, MeshData& out) 
   } else if (ext == "ply") {
     io_detail::read_ply(file, shown, file_size, out);
   } else {
-    const std::string problem = io_detail::check_stl(file, shown, file_size);
-    if (!problem.empty()) fail(what, shown, problem);
-    io_detail::read_with_openmesh(file, shown, ext, out);
+    io_detail::read_stl(file, shown, file_size, out);
   }
   if (out.V.rows() == 0) fail(what, shown, "no vertices found (not a ." + ext + " file, or an empty mesh)");
   if (out.F.rows() == 0)
@@ -173,15 +176,22 @@ WriteReport write_mesh(const std::string& path, const Eigen::Ref<const RowMatrix
          ext.empty() ? "no file extension; expected .obj, .off, .ply, .stl or .om"
                      : "unknown format " + io_detail::quote("." + ext) + "; expected .obj, .off, .ply, .stl or .om");
   if (ext == "obj" && options.binary == 1) throw InvalidInputError("save_mesh: OBJ has no binary encoding");
-  if (ext != "om") {
-    // OpenMesh's OBJ, OFF, PLY and STL writers store float32: a coordinate past its
-    // range would be written as infinity, a file no reader takes back.
+  const bool binary = options.binary == 1 || (options.binary == -1 && (ext == "ply" || ext == "stl" || ext == "om"));
+  if (binary && (ext == "off" || ext == "stl")) {
+    // Binary OFF and binary STL store float32: a coordinate past its range would
+    // be written as infinity, a file no reader takes back.
     for (Index v = 0; v < V.rows(); ++v)
       for (int c = 0; c < 3; ++c)
         if (std::isinf(static_cast<float>(V(v, c))))
           throw InvalidInputError(detail::concat("save_mesh: vertex ", v, " (", V(v, 0), ", ", V(v, 1), ", ",
-                                                 V(v, 2), ") is beyond the float32 range (3.4e38) that ." + ext +
-                                                     " files store; save as .om (float64) or scale the mesh"));
+                                                 V(v, 2), ") is beyond the float32 range (3.4e38) that binary ." +
+                                                     ext + " files store; save as ASCII, .ply or .om (float64), "
+                                                           "or scale the mesh"));
+    for (Index v = 0; ext == "off" && v < N.rows(); ++v)
+      for (int c = 0; c < 3; ++c)
+        if (std::isinf(static_cast<float>(N(v, c))))
+          throw InvalidInputError(detail::concat("save_mesh: normal ", v, " is beyond the float32 range (3.4e38) "
+                                                 "that binary .off files store"));
   }
   if (ext == "om" && options.binary == 0) throw InvalidInputError("save_mesh: OM is a binary format only");
   std::error_code ec;
@@ -196,8 +206,25 @@ WriteReport write_mesh(const std::string& path, const Eigen::Ref<const RowMatrix
     fail(what, shown, "is not a regular file (a FIFO, a device or a socket), which cannot be replaced safely; "
                       "write to a regular file");
   try {
-    return io_detail::write_with_openmesh(path, shown, ext, V, F, N, options);
+    if (ext == "om") return io_detail::write_om(path, shown, V, F, N);
+    std::string bytes;
+    WriteReport report;
+    report.vertices_written = V.rows();
+    if (ext == "obj") {
+      bytes = io_detail::format_obj(V, F, N, options.precision);
+    } else if (ext == "off") {
+      bytes = io_detail::format_off(V, F, N, binary, options.precision);
+    } else if (ext == "ply") {
+      bytes = io_detail::format_ply(V, F, N, binary, options.precision);
+    } else {
+      bytes = io_detail::format_stl(V, F, binary, options.precision);
+      report.vertices_written = 3 * F.rows();
+    }
+    io_detail::replace_file(path, shown, bytes, what);
+    return report;
   } catch (const std::bad_alloc&) {
+    fail(what, shown, "out of memory while writing");
+  } catch (const std::length_error&) {
     fail(what, shown, "out of memory while writing");
   }
 }

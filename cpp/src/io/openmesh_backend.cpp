@@ -1,12 +1,12 @@
-// Everything vpffd asks of OpenMesh: reading STL (after check_stl went through
-// the whole file), and formatting every format for writing (into memory:
-// atomic_write.cpp puts the bytes on the disk). OpenMesh
-// reports failures as a bool plus text on its omerr() stream; both become
-// MeshIOError here, with the file name.
+// All vpffd asks of OpenMesh: formatting OM files for writing (into memory:
+// atomic_write.cpp puts the bytes on the disk). OM stores OpenMesh's halfedge
+// connectivity, so the mesh goes through OpenMesh's own structure, which splits
+// non-manifold faces off and cannot hold a face with a repeated corner (both
+// counted in the WriteReport). OpenMesh reports failures as a bool plus text on
+// its omerr() stream; both become MeshIOError here, with the file name.
 
 #include <OpenMesh/Core/IO/IOManager.hh>
 #include <OpenMesh/Core/IO/MeshIO.hh>
-#include <OpenMesh/Core/IO/importer/ImporterT.hh>
 #include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 #include <algorithm>
@@ -23,15 +23,12 @@
 namespace vpffd::io_detail {
 namespace {
 
-// Double-precision points and normals so that ASCII files and OM files keep
-// every digit they have.
+// Double-precision points and normals: OM files keep float64 exactly.
 struct DoubleTraits : OpenMesh::DefaultTraits {
   typedef OpenMesh::Vec3d Point;
   typedef OpenMesh::Vec3d Normal;
 };
 using OMesh = OpenMesh::PolyMesh_ArrayKernelT<DoubleTraits>;
-
-const std::vector<std::string> kFormats = {"obj", "off", "ply", "stl", "om"};
 
 // OpenMesh's IOManager and its omerr() stream are process-wide singletons.
 std::mutex& io_mutex() {
@@ -89,123 +86,11 @@ class OmerrCapture {
   bool detached_[3][3] = {};
 };
 
-// An importer that records every face exactly as the reader delivers it, before
-// OpenMesh's halfedge mesh gets a chance to reject or split it, and that ignores
-// the reader's size hints (they come from file headers, which may be garbage).
-class RecordingImporter : public OpenMesh::IO::ImporterT<OMesh> {
- public:
-  using Base = OpenMesh::IO::ImporterT<OMesh>;
-  explicit RecordingImporter(OMesh& m) : Base(m) {}
-
-  OpenMesh::VertexHandle add_vertex(const OpenMesh::Vec3f& p) override {
-    ++vertices_added;
-    return Base::add_vertex(p);
-  }
-  OpenMesh::VertexHandle add_vertex(const OpenMesh::Vec3d& p) override {
-    ++vertices_added;
-    return Base::add_vertex(p);
-  }
-  OpenMesh::VertexHandle add_vertex() override {
-    ++vertices_added;
-    return Base::add_vertex();
-  }
-  using Base::add_face;
-  OpenMesh::FaceHandle add_face(const VHandles& idx) override {
-    ++polygons;
-    // The reader's indices come from the file: one out of range would make
-    // OpenMesh's add_face write outside its arrays. Such a face is recorded
-    // (read_with_openmesh reports it) but never given to OpenMesh.
-    for (const auto& h : idx)
-      if (h.idx() < 0 || h.idx() >= vertices_added) {
-        if (bad_face < 0) bad_face = polygons - 1, bad_index = h.idx();
-        return OpenMesh::FaceHandle();
-      }
-    if (idx.size() < 3) {
-      ++skipped;
-      return OpenMesh::FaceHandle();
-    }
-    if (idx.size() > 3) ++triangulated;
-    for (size_t k = 1; k + 1 < idx.size(); ++k)
-      tris.insert(tris.end(), {idx[0].idx(), idx[k].idx(), idx[k + 1].idx()});
-    return Base::add_face(idx);
-  }
-  void reserve(unsigned int nV, unsigned int, unsigned int nF) override {
-    header_vertices = nV;
-    header_faces = nF;
-  }
-
-  std::vector<int> tris;
-  Index vertices_added = 0, polygons = 0, triangulated = 0, skipped = 0;
-  Index bad_face = -1, bad_index = -1;
-  Index header_vertices = -1, header_faces = -1;
-};
-
 }  // namespace
 
-void read_with_openmesh(const std::string& file, const std::string& shown, const std::string& ext, MeshData& out) {
-  const char* what = "load_mesh";
-  std::lock_guard<std::mutex> lock(io_mutex());
-  OMesh mesh;
-  mesh.request_vertex_normals();
-  RecordingImporter importer(mesh);
-  OpenMesh::IO::Options opt = OpenMesh::IO::Options::VertexNormal;
-  bool ok = false;
-  std::string messages;
-  {
-    OmerrCapture capture;
-    try {
-      ok = OpenMesh::IO::IOManager().read(file, importer, opt);
-    } catch (const std::bad_alloc&) {
-      fail(what, shown, "out of memory while reading");
-    } catch (const std::exception& e) {
-      fail(what, shown, "the reader failed: " + printable(e.what()));
-    }
-    messages = printable(capture.summary());
-  }
-  if (!ok)
-    fail(what, shown,
-         "OpenMesh's " + ext + " reader could not read it (not a valid ." + ext + " file?)" +
-             (messages.empty() ? std::string() : ": " + messages));
-  if (importer.bad_face >= 0)
-    fail(what, shown,
-         "face " + std::to_string(importer.bad_face) + " refers to vertex " + std::to_string(importer.bad_index) +
-             ", but the file has " + std::to_string(importer.vertices_added) + " vertices");
-
-  // Vertices: the ones the reader added (OpenMesh's importer appends copies for
-  // faces its halfedge structure could not take; those are not in the file).
-  const Index nV = importer.vertices_added;
-  if (importer.header_vertices > 0 && nV < importer.header_vertices)
-    fail(what, shown,
-         "the file is truncated: the header announces " + std::to_string(importer.header_vertices) +
-             " vertices, " + std::to_string(nV) + " were read");
-  if (importer.header_faces > 0 && importer.polygons < importer.header_faces)
-    fail(what, shown,
-         "the file is truncated: the header announces " + std::to_string(importer.header_faces) + " faces, " +
-             std::to_string(importer.polygons) + " were read");
-  std::vector<double> V(static_cast<size_t>(3 * nV));
-  for (Index v = 0; v < nV; ++v) {
-    const auto& q = mesh.point(OpenMesh::VertexHandle(static_cast<int>(v)));
-    for (int c = 0; c < 3; ++c) V[static_cast<size_t>(3 * v + c)] = q[c];
-  }
-  out.polygons = importer.polygons;
-  out.triangulated_polygons = importer.triangulated;
-  out.skipped_faces = importer.skipped;
-  finish_mesh(shown, V, importer.tris, out);
-  if (opt.vertex_has_normal() && mesh.has_vertex_normals()) {
-    out.N.resize(nV, 3);
-    for (Index v = 0; v < nV; ++v) {
-      const auto& q = mesh.normal(OpenMesh::VertexHandle(static_cast<int>(v)));
-      out.N.row(v) << q[0], q[1], q[2];
-    }
-    if (!out.N.allFinite()) out.N.resize(0, 3);  // unusable normals are dropped, not fatal
-  }
-}
-
-WriteReport write_with_openmesh(const std::string& path, const std::string& shown, const std::string& ext,
-                                const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
-                                const Eigen::Ref<const RowMatrixX3d>& N, const WriteOptions& options) {
+WriteReport write_om(const std::string& path, const std::string& shown, const ConstV& V, const ConstF& F,
+                     const ConstV& N) {
   const char* what = "save_mesh";
-  const bool binary = options.binary == 1 || (options.binary == -1 && (ext == "ply" || ext == "stl" || ext == "om"));
   std::lock_guard<std::mutex> lock(io_mutex());
   OMesh mesh;
   const bool normals = N.rows() > 0;
@@ -242,22 +127,19 @@ WriteReport write_with_openmesh(const std::string& path, const std::string& show
       mesh.add_face(vh);
     }
     report.vertices_written = static_cast<Index>(mesh.n_vertices());
-    OpenMesh::IO::Options opt;
-    if (binary) opt += OpenMesh::IO::Options::Binary;
-    if (binary && ext != "om") opt += OpenMesh::IO::Options::LSB;
+    OpenMesh::IO::Options opt = OpenMesh::IO::Options::Binary;
     if (normals) opt += OpenMesh::IO::Options::VertexNormal;
     // Into memory: OpenMesh does not check its writes. replace_file writes the bytes,
     // checking each write, and puts them in place only when all are on the disk.
     try {
-      ok = OpenMesh::IO::write_mesh(mesh, bytes, "." + ext, opt, options.precision);
+      ok = OpenMesh::IO::write_mesh(mesh, bytes, ".om", opt);
     } catch (const std::exception& e) {
       fail(what, shown, "the writer failed: " + printable(e.what()));
     }
     messages = printable(capture.summary());
   }
   if (!ok || !bytes)
-    fail(what, shown,
-         "OpenMesh's " + ext + " writer failed" + (messages.empty() ? std::string() : ": " + messages));
+    fail(what, shown, "OpenMesh's OM writer failed" + (messages.empty() ? std::string() : ": " + messages));
   replace_file(path, shown, bytes.str(), what);
   return report;
 }

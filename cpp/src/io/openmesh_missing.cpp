@@ -1,30 +1,18 @@
-// A build without OpenMesh: vpffd's own readers (OBJ, OFF, PLY, OM) still work,
-// and what only OpenMesh does here (reading STL, writing any format) is refused
-// with the package to install, instead of the whole of vpffd::io being left out.
+// A build without OpenMesh: every format is read and written by vpffd itself but
+// for writing OM, which stores OpenMesh's halfedge connectivity and is therefore
+// left to OpenMesh; it is refused with the package to install.
 
 #include "readers.h"
 #include "vpffd/core/exceptions.h"
 
 namespace vpffd::io_detail {
-namespace {
 
-[[noreturn]] void refuse(const char* what, const std::string& shown, const std::string& doing) {
-  throw BackendUnavailableError(std::string(what) + ": '" + shown + "': " + doing +
-                                " needs OpenMesh, which this build of vpffd was compiled without "
-                                "(Debian/Ubuntu: apt-get install libopenmesh-dev, then rebuild vpffd). "
-                                "OBJ, OFF, PLY and OM files can be read without it.");
-}
-
-}  // namespace
-
-void read_with_openmesh(const std::string&, const std::string& shown, const std::string& ext, MeshData&) {
-  refuse("load_mesh", shown, "reading ." + ext + " files");
-}
-
-WriteReport write_with_openmesh(const std::string&, const std::string& shown, const std::string& ext,
-                                const Eigen::Ref<const RowMatrixX3d>&, const Eigen::Ref<const RowMatrixX3i>&,
-                                const Eigen::Ref<const RowMatrixX3d>&, const WriteOptions&) {
-  refuse("save_mesh", shown, "writing ." + ext + " files");
+WriteReport write_om(const std::string&, const std::string& shown, const ConstV&, const ConstF&, const ConstV&) {
+  throw BackendUnavailableError("save_mesh: '" + shown +
+                                "': writing .om files needs OpenMesh, which this build of vpffd was compiled "
+                                "without (Debian/Ubuntu: apt-get install libopenmesh-dev, then rebuild vpffd). "
+                                "Every format, .om included, can be read without it, and .obj, .off, .ply and "
+                                ".stl files written.");
 }
 
 }  // namespace vpffd::io_detail

@@ -364,8 +364,8 @@ def _check_outputs(args, default_size) -> None:
     """The checks of OUT, --render and --size that ``deform`` and ``subdiv`` share,
     all before any work (a bad value leaves OUT untouched)."""
     ext = _extension(args.output)
-    from ..io import FORMATS as formats, _require_openmesh  # FORMATS is empty without OpenMesh
-    _require_openmesh(f"OUT {args.output!r}")  # before reading and deforming, not after
+    from ..io import FORMATS as formats, _require_writer  # FORMATS is empty without mesh file I/O
+    _require_writer(args.output, f"OUT {args.output!r}")  # before reading and deforming, not after
     if formats and ext not in formats:
         raise _UsageError(f"OUT: unknown mesh format {ext or '(none)'!r} of {args.output!r}; "
                           f"expected one of {', '.join('.' + f for f in formats)}")
