@@ -264,7 +264,7 @@ class Multires:
     """
     bytes_per_vertex: typing.ClassVar[int] = 237
     frame_bytes_per_vertex: typing.ClassVar[int] = 128
-    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], smoothing: typing.SupportsFloat | typing.SupportsIndex, threads: typing.SupportsInt | typing.SupportsIndex = 0, exact_foot_points: bool = True, fit_rounds: typing.SupportsInt | typing.SupportsIndex = 4, fairness: typing.SupportsFloat | typing.SupportsIndex = 100.0, lift: bool = True) -> None:
+    def __init__(self, vertices: typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]", "flags.c_contiguous"], faces: typing.Annotated[numpy.typing.NDArray[numpy.int32], "[m, 3]", "flags.c_contiguous"], smoothing: typing.SupportsFloat | typing.SupportsIndex, threads: typing.SupportsInt | typing.SupportsIndex = 0, exact_foot_points: bool = True, fit_rounds: typing.SupportsInt | typing.SupportsIndex = 4, fairness: typing.SupportsFloat | typing.SupportsIndex = 100.0, lift: bool = True, progress: typing.Any = None) -> None:
         ...
     @property
     def base(self) -> typing.Annotated[numpy.typing.NDArray[numpy.float64], "[m, 3]"]:

@@ -138,6 +138,11 @@ class Multires:
         triangle's own normal (discontinuous from triangle to triangle; kept for
         comparison).
     threads : int, optional
+    progress : callable, optional
+        called as ``progress(done, total)`` after each stage of the decomposition
+        (fairing with the first foot points, each fit round, the lift), from the
+        calling thread; each stage is also logged at INFO level (``logging``, logger
+        ``vpffd``). An exception it raises stops the decomposition and propagates.
 
     Attributes
     ----------
@@ -174,7 +179,7 @@ class Multires:
     frame_bytes_per_vertex = _core.Multires.frame_bytes_per_vertex
 
     def __init__(self, mesh, smoothing=10, fit_rounds=4, fairness=100.0, foot_points="exact", threads=None,
-                 lift=True):
+                 lift=True, progress=None):
         self.mesh = Mesh.from_any(mesh)
         self.smoothing = _arrays.positive(smoothing, "smoothing", "Multires")
         if isinstance(fit_rounds, bool) or not isinstance(fit_rounds, (int, np.integer)) or not 0 <= fit_rounds <= 100:
@@ -189,8 +194,16 @@ class Multires:
         t0 = time.perf_counter()
         _log.info("Multires: decomposing %d vertices (smoothing %g, %d fit rounds, %s foot points)",
                   self.mesh.n_vertices, self.smoothing, self.fit_rounds, foot_points)
+        if progress is not None and not callable(progress):
+            raise InvalidInputError(f"Multires: progress must be callable, got {progress!r}")
+
+        def stage(name, done, total, rms):
+            _log.info("Multires: %s (%d/%d), rms |d| %.4g", name, done, total, rms)
+            if progress is not None:
+                progress(done, total)
+
         self._m = _core.Multires(self.mesh.vertices, self.mesh.faces, self.smoothing, _threads_arg(threads),
-                                 foot_points == "exact", self.fit_rounds, self.fairness, bool(lift))
+                                 foot_points == "exact", self.fit_rounds, self.fairness, bool(lift), stage)
         self.seconds = time.perf_counter() - t0
         self.base = Mesh(self._m.base, self.mesh.faces)
         self.displacements = _read_only(self._m.displacements)
@@ -203,8 +216,6 @@ class Multires:
         self.rest_normals = _read_only(self._m.rest_normals)
         self.extrapolated_fraction = float(self._m.extrapolated_fraction)
         self.rms_displacement = tuple(float(x) for x in self._m.rms_displacement)
-        for i, rms in enumerate(self.rms_displacement):
-            _log.debug("Multires: %s: rms |d| %.4g", "faired base" if i == 0 else f"fit round {i}", rms)
         _log.info("Multires: decomposed in %.2f s; rms |d| %.4g -> %.4g; %d foot points unresolved; %d lifted",
                   self.seconds, self.rms_displacement[0], self.rms_displacement[-1], self.n_unresolved,
                   self.n_lifted)

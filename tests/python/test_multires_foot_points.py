@@ -270,3 +270,25 @@ def test_affine_foot_points_turn_faces_on_the_armadillo(shared_meshes):
     old = vpffd.Multires(mesh, fit_rounds=0, foot_points="affine")
     r = vpffd.MultiresDeformer(old, lat).deform(P, preserve_volume=False)
     assert turned_faces(mesh.vertices, r.vertices, mesh.faces, J) > 10
+
+
+def test_decomposition_reports_progress(caplog):
+    """progress(done, total) after each stage, the stages logged, and an exception in
+    the callback stops the decomposition and reaches the caller."""
+    mesh = vpffd.shapes.bumpy_sphere(2)
+    calls = []
+    with caplog.at_level("INFO", logger="vpffd"):
+        vpffd.Multires(mesh, progress=lambda k, n: calls.append((k, n)))
+    assert calls == [(k, 6) for k in range(1, 7)]  # faired base, 4 fit rounds, the lift
+    assert "fit round 4 (5/6)" in caplog.text and "lift (6/6)" in caplog.text
+    calls.clear()
+    vpffd.Multires(mesh, fit_rounds=1, lift=False, progress=lambda k, n: calls.append((k, n)))
+    assert calls == [(1, 2), (2, 2)]
+
+    def stop(k, n):
+        if k == 2:
+            raise KeyboardInterrupt("stopped by the user")
+    with pytest.raises(KeyboardInterrupt, match="stopped"):
+        vpffd.Multires(mesh, progress=stop)
+    with pytest.raises(vpffd.InvalidInputError, match="progress"):
+        vpffd.Multires(mesh, progress=3)

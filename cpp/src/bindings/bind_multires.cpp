@@ -48,13 +48,22 @@ auto frame_method(void (MultiresFFD::*method)(const Eigen::Ref<const RowMatrixX3
 void bind_multires(py::module_& m) {
   py::class_<Multires, std::shared_ptr<Multires>>(m, "Multires", "Two-scale decomposition (base + displacements).")
       .def(py::init([](RefV V, RefF F, double smoothing, int threads, bool exact, int fit_rounds, double fairness,
-                       bool lift) {
+                       bool lift, py::object progress) {
+             // The callback runs between stages on this thread: it takes the GIL back
+             // for the call only (a Python exception in it unwinds decompose).
+             DecomposeProgress report;
+             if (!progress.is_none())
+               report = [&progress](const char* stage, int done, int total, double rms) {
+                 py::gil_scoped_acquire gil;
+                 progress(stage, done, total, rms);
+               };
              py::gil_scoped_release release;
-             return std::make_shared<Multires>(decompose(V, F, smoothing, threads, exact, fit_rounds, fairness, lift));
+             return std::make_shared<Multires>(
+                 decompose(V, F, smoothing, threads, exact, fit_rounds, fairness, lift, report));
            }),
            py::arg("vertices"), py::arg("faces"), py::arg("smoothing"), py::arg("threads") = 0,
            py::arg("exact_foot_points") = true, py::arg("fit_rounds") = 4, py::arg("fairness") = 100.0,
-           py::arg("lift") = true)
+           py::arg("lift") = true, py::arg("progress") = py::none())
       .def_property_readonly("lift", [](const Multires& r) {
         return r.lift.empty() ? vec(std::vector<double>(static_cast<size_t>(r.n_vertices()), 0.0)) : vec(r.lift);
       })

@@ -315,7 +315,7 @@ def _deform_multires(args, mesh, lat, P, preserve, done, cons, bar) -> int:
     from ..mesh import Mesh
     from ..multires import Multires, MultiresDeformer
 
-    mr = Multires(mesh, smoothing=args.multires)
+    mr = Multires(mesh, smoothing=args.multires, progress=lambda k, n: bar(k, n, "decomposing"))
     md = MultiresDeformer(mr, lat, backend=args.backend, outside=args.outside)
     bar(2, 4, "deforming")
     t0 = time.perf_counter()

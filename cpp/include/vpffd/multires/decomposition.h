@@ -11,6 +11,7 @@
 /// (S', S'_u, S'_v); reconstruct() in reconstruct.h does the rest.
 
 #include <array>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -213,6 +214,10 @@ inline void lift_displacements(Multires& m, int threads = 0) {
   }
 }
 
+/// Called after each stage of decompose: its name ("faired base", "fit round k",
+/// "lift"), the stages done and their total, and the RMS |d| after it.
+using DecomposeProgress = std::function<void(const char* stage, int done, int total, double rms)>;
+
 /// Decomposes (V, F): base S = fair_mesh(V, F, smoothing), foot points, frame data.
 /// @param[in] V  #V x 3 fine vertices; F #F x 3 triangles (any mesh; volume modes
 ///               need a closed one and check it themselves)
@@ -224,9 +229,11 @@ inline void lift_displacements(Multires& m, int threads = 0) {
 ///         a vertex whose area-weighted normal vanishes, or a failed foot-point search
 /// @param[in] lift  shorten the displacements that a shear would turn over
 ///               (lift_displacements; exact foot points only)
+/// @param[in] progress  called after each stage (may be empty); what it throws
+///               propagates
 inline Multires decompose(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::Ref<const RowMatrixX3i>& F,
                           double smoothing, int threads = 0, bool exact_foot_points = true, int fit_rounds = 4,
-                          double fairness = 100.0, bool lift = true) {
+                          double fairness = 100.0, bool lift = true, const DecomposeProgress& progress = {}) {
   VPFFD_CHECK(fit_rounds >= 0 && fit_rounds <= 100, "Multires: fit rounds must be in 0..100, got ", fit_rounds);
   VPFFD_CHECK(std::isfinite(fairness) && fairness > 0, "Multires: fairness must be a positive number, got ",
               fairness);
@@ -238,6 +245,9 @@ inline Multires decompose(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::
   m.rest_normals = vertex_normals(V, F, threads);
   set_foot_points(m, exact_foot_points, threads);
   m.rms_displacement.push_back(detail::rms(m.d));
+  const bool lifting = lift && exact_foot_points;
+  const int stages = 1 + fit_rounds + (lifting ? 1 : 0);
+  if (progress) progress("faired base", 1, stages, m.rms_displacement.back());
   if (fit_rounds > 0) {
     m.fairness = fairness;
     const Eigen::SparseMatrix<double> K = umbrella_fairness(F, V.rows());
@@ -251,9 +261,13 @@ inline Multires decompose(const Eigen::Ref<const RowMatrixX3d>& V, const Eigen::
       m.base = fit_control_points(foot_point_weights(m), V, K, fairness, m.base, threads, nullptr, &w);
       set_foot_points(m, exact_foot_points, threads);
       m.rms_displacement.push_back(detail::rms(m.d));
+      if (progress) progress(("fit round " + std::to_string(round + 1)).c_str(), round + 2, stages, m.rms_displacement.back());
     }
   }
-  if (lift && exact_foot_points) lift_displacements(m, threads);
+  if (lifting) {
+    lift_displacements(m, threads);
+    if (progress) progress("lift", stages, stages, detail::rms(m.d));
+  }
   return m;
 }
 
