@@ -194,6 +194,11 @@ class SubdivisionMultires:
         vertices allowed without an exact foot point (default 0: more raise
         InvalidInputError with their count and the first ones). Accepted ones keep
         their best point; ``residuals`` shows them and ``unresolved`` lists them.
+    progress : callable, optional
+        called as ``progress(done, total)`` after each stage (the decimated control
+        mesh, the first foot points, each fit round), from the calling thread; each
+        stage is also logged at INFO level (logger ``vpffd``). An exception it raises
+        stops the decomposition and propagates.
     threads : int, optional
 
     Attributes
@@ -221,7 +226,7 @@ class SubdivisionMultires:
     """
 
     def __init__(self, mesh, scheme: str = "loop", control_mesh=None, control_vertices=None, fairness=1e-3,
-                 iterations=2, approx_level=6, max_unresolved=0, threads=None):
+                 iterations=2, approx_level=6, max_unresolved=0, threads=None, progress=None):
         _require("SubdivisionMultires")
         if scheme not in _SCHEMES:
             raise InvalidInputError(f"SubdivisionMultires: scheme must be 'loop' or 'catmark', got {scheme!r}")
@@ -232,6 +237,14 @@ class SubdivisionMultires:
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
                 raise InvalidInputError(f"SubdivisionMultires: {name} must be an integer, got {value!r}")
         threads = _threads_arg(threads)
+        if progress is not None and not callable(progress):
+            raise InvalidInputError(f"SubdivisionMultires: progress must be callable, got {progress!r}")
+
+        def stage(name, done, total, rms):
+            _log.info("SubdivisionMultires: %s (%d/%d), rms |p - S| %.4g", name, done, total, rms)
+            if progress is not None:
+                progress(done, total)
+
         V, F = self.mesh.vertices, self.mesh.faces
         _log.info("SubdivisionMultires: decomposing %d vertices (%s, %s control mesh, %d fit rounds)", len(V),
                   scheme, "given" if control_mesh is not None else "decimated", int(iterations))
@@ -240,7 +253,7 @@ class SubdivisionMultires:
                 raise InvalidInputError("SubdivisionMultires: give control_mesh or control_vertices, not both")
             CV, sizes, verts = _control_mesh(control_mesh, scheme)
             self._m = _core.subdivision_decompose(V, F, CV, sizes, verts, scheme, fairness, int(iterations),
-                                                  int(approx_level), int(max_unresolved), threads)
+                                                  int(approx_level), int(max_unresolved), threads, stage)
         else:
             if control_vertices is None:
                 control_vertices = min(len(V), max(64, len(V) // 100))
@@ -249,7 +262,7 @@ class SubdivisionMultires:
                                         f"got {control_vertices!r}")
             self._m = _core.subdivision_decompose_decimated(V, F, int(control_vertices), scheme, fairness,
                                                             int(iterations), int(approx_level),
-                                                            int(max_unresolved), threads)
+                                                            int(max_unresolved), threads, stage)
         m = self._m
         self.scheme = scheme
         self.control_points = _read_only(m.control_points)
@@ -263,8 +276,6 @@ class SubdivisionMultires:
         self.rms_initial, self.rms_final = float(m.rms_initial), float(m.rms_final)
         self.rms_rounds = tuple(m.rms_rounds)
         self.seconds = float(m.seconds)
-        for i, rms in enumerate(self.rms_rounds):
-            _log.debug("SubdivisionMultires: fit round %d: rms |p - S| %.4g", i + 1, rms)
         _log.info("SubdivisionMultires: %d control points; rms |p - S| %.4g -> %.4g; %d foot points unresolved; "
                   "%.2f s", len(self.control_points), self.rms_initial, self.rms_final, len(self.unresolved),
                   self.seconds)

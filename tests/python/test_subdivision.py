@@ -421,3 +421,24 @@ def test_preserve_volume_with_point_constraints(name, scheme):
             sm.deform(C, preserve_volume=True, constraints=cons)
     with pytest.raises(vpffd.InvalidInputError, match="preserve_volume=True"):
         sm.deform(C, constraints=[(i, Ti)])
+
+
+@needs_osd
+def test_decomposition_reports_progress(caplog):
+    """progress(done, total) after each stage (decimation, first foot points, each
+    fit round), the stages logged, and an exception in the callback propagates."""
+    mesh = vpffd.shapes.bumpy_sphere(3)
+    calls = []
+    with caplog.at_level("INFO", logger="vpffd"):
+        vpffd.SubdivisionMultires(mesh, control_vertices=100, iterations=2, max_unresolved=mesh.n_vertices,
+                                  progress=lambda k, n: calls.append((k, n)))
+    assert calls == [(1, 4), (2, 4), (3, 4), (4, 4)]
+    assert "control mesh (1/4)" in caplog.text and "fit round 2 (4/4)" in caplog.text
+
+    def stop(k, n):
+        if k == 2:
+            raise KeyboardInterrupt("stopped by the user")
+    with pytest.raises(KeyboardInterrupt, match="stopped"):
+        vpffd.SubdivisionMultires(mesh, control_vertices=100, progress=stop)
+    with pytest.raises(vpffd.InvalidInputError, match="progress"):
+        vpffd.SubdivisionMultires(mesh, control_vertices=100, progress="bar")

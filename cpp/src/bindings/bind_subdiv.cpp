@@ -25,8 +25,15 @@ SubdivScheme parse_scheme(const std::string& s) {
 }
 
 SubdivOptions options(const std::string& scheme, double fairness, int iterations, int approx_level,
-                      Index max_unresolved, int threads) {
+                      Index max_unresolved, int threads, const py::object& progress) {
   SubdivOptions o;
+  // The callback runs between stages on the calling thread: it takes the GIL back for
+  // the call only (a Python exception in it unwinds the decomposition).
+  if (!progress.is_none())
+    o.progress = [&progress](const char* stage, int done, int total, double rms) {
+      py::gil_scoped_acquire gil;
+      progress(stage, done, total, rms);
+    };
   o.scheme = parse_scheme(scheme);
   o.fairness = fairness;
   o.iterations = iterations;
@@ -125,25 +132,28 @@ void bind_subdiv(py::module_& m) {
       "subdivision_decompose",
       [](RefV V, RefF F, RefV CV, const std::vector<std::int32_t>& sizes, const std::vector<std::int32_t>& verts,
          const std::string& scheme, double fairness, int iterations, int approx_level, Index max_unresolved,
-         int threads) {
-        const SubdivOptions o = sb::options(scheme, fairness, iterations, approx_level, max_unresolved, threads);
+         int threads, py::object progress) {
+        const SubdivOptions o =
+            sb::options(scheme, fairness, iterations, approx_level, max_unresolved, threads, progress);
         py::gil_scoped_release release;
         return std::make_shared<SM>(decompose_subdivision(V, F, CV, sizes, verts, o));
       },
       py::arg("vertices"), py::arg("faces"), py::arg("control_points"), py::arg("face_sizes"),
       py::arg("face_vertices"), py::arg("scheme"), py::arg("fairness"), py::arg("iterations"),
-      py::arg("approx_level"), py::arg("max_unresolved"), py::arg("threads") = 0,
+      py::arg("approx_level"), py::arg("max_unresolved"), py::arg("threads") = 0, py::arg("progress") = py::none(),
       "Decomposition over a given control mesh (polygons as sizes + concatenated vertices).");
   m.def(
       "subdivision_decompose_decimated",
       [](RefV V, RefF F, Index control_vertices, const std::string& scheme, double fairness, int iterations,
-         int approx_level, Index max_unresolved, int threads) {
-        const SubdivOptions o = sb::options(scheme, fairness, iterations, approx_level, max_unresolved, threads);
+         int approx_level, Index max_unresolved, int threads, py::object progress) {
+        const SubdivOptions o =
+            sb::options(scheme, fairness, iterations, approx_level, max_unresolved, threads, progress);
         py::gil_scoped_release release;
         return std::make_shared<SM>(decompose_subdivision(V, F, control_vertices, o));
       },
       py::arg("vertices"), py::arg("faces"), py::arg("control_vertices"), py::arg("scheme"), py::arg("fairness"),
       py::arg("iterations"), py::arg("approx_level"), py::arg("max_unresolved"), py::arg("threads") = 0,
+      py::arg("progress") = py::none(),
       "Decomposition over a control mesh decimated from the fine one.");
   m.def(
       "decimate_mesh",

@@ -191,6 +191,10 @@ SubdivisionMultires decompose_subdivision(const Eigen::Ref<const RowMatrixX3d>& 
   surface.set_points(C);
   std::vector<FootParam> fp = subdiv::find_foot_points(surface, m.fine, {}, tol, threads);
   m.rms_initial = rms_distance(fp);
+  // Stage numbers continue those of the decimation (the decimating overload reports
+  // stage 1 of 2 + iterations and sets `first` to 1).
+  const int first = options.progress_offset, total = first + 1 + options.iterations;
+  if (options.progress) options.progress("foot points", first + 1, total, m.rms_initial);
   if (options.iterations > 0) {
     const Eigen::SparseMatrix<double> K = fairness_form(C.rows(), face_sizes, face_vertices);
     for (int round = 0; round < options.iterations; ++round) {
@@ -202,6 +206,9 @@ SubdivisionMultires decompose_subdivision(const Eigen::Ref<const RowMatrixX3d>& 
       surface.set_points(C);
       fp = subdiv::find_foot_points(surface, m.fine, fp, tol, threads);
       m.rms_rounds.push_back(rms_distance(fp));
+      if (options.progress)
+        options.progress(("fit round " + std::to_string(round + 1)).c_str(), first + 2 + round, total,
+                         m.rms_rounds.back());
     }
   }
   m.control_points = C;
@@ -275,7 +282,10 @@ SubdivisionMultires decompose_subdivision(const Eigen::Ref<const RowMatrixX3d>& 
               control_vertices);
   auto [CV, CF] = decimate_mesh(V, F, control_vertices);
   std::vector<std::int32_t> sizes(CF.rows(), 3), verts(CF.data(), CF.data() + CF.size());
-  SubdivisionMultires m = decompose_subdivision(V, F, CV, sizes, verts, options);
+  SubdivOptions rest = options;
+  rest.progress_offset = 1;
+  if (options.progress) options.progress("control mesh", 1, 2 + options.iterations, 0.0);
+  SubdivisionMultires m = decompose_subdivision(V, F, CV, sizes, verts, rest);
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return m;
 }

@@ -424,7 +424,8 @@ def _subdiv(args, bar) -> int:
     try:
         sm = SubdivisionMultires(mesh, scheme=args.scheme, control_vertices=args.control_vertices,
                                  fairness=args.fairness, iterations=args.iterations,
-                                 max_unresolved=args.max_unresolved)
+                                 max_unresolved=args.max_unresolved,
+                                 progress=lambda k, n: bar(k, n, "decomposing"))
     except ValueError as e:
         if "max_unresolved" not in str(e):
             raise

@@ -11,12 +11,12 @@
 /// (S', S'_u, S'_v); reconstruct() in reconstruct.h does the rest.
 
 #include <array>
-#include <functional>
 #include <memory>
 #include <vector>
 
 #include "vpffd/core/check.h"
 #include "vpffd/core/parallel.h"
+#include "vpffd/core/progress.h"
 #include "vpffd/ffd/normals.h"
 #include "vpffd/multires/fairing.h"
 #include "vpffd/multires/fitting.h"
@@ -214,9 +214,8 @@ inline void lift_displacements(Multires& m, int threads = 0) {
   }
 }
 
-/// Called after each stage of decompose: its name ("faired base", "fit round k",
-/// "lift"), the stages done and their total, and the RMS |d| after it.
-using DecomposeProgress = std::function<void(const char* stage, int done, int total, double rms)>;
+/// decompose's stages: "faired base", "fit round k", "lift"; the figure is RMS |d|.
+using DecomposeProgress = StageProgress;
 
 /// Decomposes (V, F): base S = fair_mesh(V, F, smoothing), foot points, frame data.
 /// @param[in] V  #V x 3 fine vertices; F #F x 3 triangles (any mesh; volume modes

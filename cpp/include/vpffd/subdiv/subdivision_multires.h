@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "vpffd/core/types.h"
+#include "vpffd/core/progress.h"
 #include "vpffd/multires/normal_coefficients.h"
 
 namespace vpffd {
@@ -45,6 +46,11 @@ struct SubdivOptions {
   /// about that much).
   Index max_unresolved = 0;
   int threads = 0;
+  /// Called after the control mesh is decimated (when it is), after the first foot
+  /// points and after each fit round; the figure is RMS |p - S| (0 for decimation).
+  StageProgress progress;
+  /// Stages already reported before this decomposition (internal: 1 after decimation).
+  int progress_offset = 0;
 };
 
 /// Weights of S, S_u and S_v over the control points at each fine vertex's foot
