@@ -32,6 +32,7 @@ import warnings
 
 from . import _arrays, _core
 from ._spare import Spares
+from ._stages import stage_reporter
 from .backends import _requested_precision, _resolve_backend
 from .deformer import Deformer, correction_arrays
 from .lattice import Lattice
@@ -194,13 +195,7 @@ class Multires:
         t0 = time.perf_counter()
         _log.info("Multires: decomposing %d vertices (smoothing %g, %d fit rounds, %s foot points)",
                   self.mesh.n_vertices, self.smoothing, self.fit_rounds, foot_points)
-        if progress is not None and not callable(progress):
-            raise InvalidInputError(f"Multires: progress must be callable, got {progress!r}")
-
-        def stage(name, done, total, rms):
-            _log.info("Multires: %s (%d/%d), rms |d| %.4g", name, done, total, rms)
-            if progress is not None:
-                progress(done, total)
+        stage = stage_reporter("Multires", "rms |d|", progress, _log)
 
         self._m = _core.Multires(self.mesh.vertices, self.mesh.faces, self.smoothing, _threads_arg(threads),
                                  foot_points == "exact", self.fit_rounds, self.fairness, bool(lift), stage)

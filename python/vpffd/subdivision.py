@@ -19,6 +19,7 @@ import numpy as np
 import scipy.sparse
 
 from . import _arrays, _core
+from ._stages import stage_reporter
 from .backends import _requested_precision, _resolve_backend
 from .mesh import Mesh
 from .multires import MultiresResult, _check_normals, _read_only, _relative, _threads_arg, _volume
@@ -237,13 +238,7 @@ class SubdivisionMultires:
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
                 raise InvalidInputError(f"SubdivisionMultires: {name} must be an integer, got {value!r}")
         threads = _threads_arg(threads)
-        if progress is not None and not callable(progress):
-            raise InvalidInputError(f"SubdivisionMultires: progress must be callable, got {progress!r}")
-
-        def stage(name, done, total, rms):
-            _log.info("SubdivisionMultires: %s (%d/%d), rms |p - S| %.4g", name, done, total, rms)
-            if progress is not None:
-                progress(done, total)
+        stage = stage_reporter("SubdivisionMultires", "rms |p - S|", progress, _log)
 
         V, F = self.mesh.vertices, self.mesh.faces
         _log.info("SubdivisionMultires: decomposing %d vertices (%s, %s control mesh, %d fit rounds)", len(V),

@@ -41,6 +41,9 @@ std::string format_obj(const ConstV& V, const ConstF& F, const ConstV& N, int pr
 std::string format_off(const ConstV& V, const ConstF& F, const ConstV& N, bool binary, int precision);
 /// PLY with float64 coordinates (and nx ny nz normals); binary is little-endian.
 std::string format_ply(const ConstV& V, const ConstF& F, const ConstV& N, bool binary, int precision);
+/// The body ASCII OFF and ASCII PLY share (write_off.cpp): one "x y z[ nx ny nz]" line
+/// per vertex (normals when N has rows), then one "3 a b c" line per triangle.
+void put_ascii_body(std::string& s, const ConstV& V, const ConstF& F, const ConstV& N, int precision);
 /// STL with facet normals computed from the triangles (no vertex normals: the
 /// format has none); binary STL stores float32 by definition.
 std::string format_stl(const ConstV& V, const ConstF& F, bool binary, int precision);

@@ -9,6 +9,23 @@
 
 namespace vpffd::io_detail {
 
+void put_ascii_body(std::string& s, const ConstV& V, const ConstF& F, const ConstV& N, int precision) {
+  const bool normals = N.rows() > 0;
+  for (Index v = 0; v < V.rows(); ++v) {
+    for (int c = 0; c < 3; ++c) {
+      if (c) s += ' ';
+      put_real(s, V(v, c), precision);
+    }
+    for (int c = 0; normals && c < 3; ++c) s += ' ', put_real(s, N(v, c), precision);
+    s += '\n';
+  }
+  for (Index f = 0; f < F.rows(); ++f) {
+    s += '3';
+    for (int c = 0; c < 3; ++c) s += ' ', put_int(s, F(f, c));
+    s += '\n';
+  }
+}
+
 std::string format_off(const ConstV& V, const ConstF& F, const ConstV& N, bool binary, int precision) {
   const bool normals = N.rows() > 0;
   std::string s;
@@ -36,19 +53,7 @@ std::string format_off(const ConstV& V, const ConstF& F, const ConstV& N, bool b
   s += ' ';
   put_int(s, F.rows());
   s += " 0\n";
-  for (Index v = 0; v < V.rows(); ++v) {
-    for (int c = 0; c < 3; ++c) {
-      if (c) s += ' ';
-      put_real(s, V(v, c), precision);
-    }
-    for (int c = 0; normals && c < 3; ++c) s += ' ', put_real(s, N(v, c), precision);
-    s += '\n';
-  }
-  for (Index f = 0; f < F.rows(); ++f) {
-    s += '3';
-    for (int c = 0; c < 3; ++c) s += ' ', put_int(s, F(f, c));
-    s += '\n';
-  }
+  put_ascii_body(s, V, F, N, precision);
   return s;
 }
 

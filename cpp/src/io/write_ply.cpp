@@ -34,19 +34,7 @@ std::string format_ply(const ConstV& V, const ConstF& F, const ConstV& N, bool b
   }
   s.reserve(s.size() + static_cast<std::size_t>(V.rows()) * (normals ? 120 : 60) +
             static_cast<std::size_t>(F.rows()) * 32);
-  for (Index v = 0; v < V.rows(); ++v) {
-    for (int c = 0; c < 3; ++c) {
-      if (c) s += ' ';
-      put_real(s, V(v, c), precision);
-    }
-    for (int c = 0; normals && c < 3; ++c) s += ' ', put_real(s, N(v, c), precision);
-    s += '\n';
-  }
-  for (Index f = 0; f < F.rows(); ++f) {
-    s += '3';
-    for (int c = 0; c < 3; ++c) s += ' ', put_int(s, F(f, c));
-    s += '\n';
-  }
+  put_ascii_body(s, V, F, N, precision);
   return s;
 }
 
